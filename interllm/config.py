@@ -1,0 +1,248 @@
+"""Typed experiment configuration.
+
+These dataclasses are the single schema of the experiment. The pipeline registers them in
+Hydra's ConfigStore (``pipeline/_hydra.py``) so that a typo or a wrong type fails at
+composition; ``validate()`` (called from ``__post_init__``) checks ranges and names, so a bad
+value fails with the config key and the valid choices. The library itself never imports hydra:
+it receives instances of these classes.
+
+Units are in the field comments: metres [m], seconds [s], radians [rad].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+PLANNER_NAMES = ("inter_llm", "sayplan", "moma_llm")
+LLM_BACKENDS = ("embedded", "ollama")
+CACHE_MODES = ("readwrite", "replay", "off")
+PROPOSAL_MODES = ("score", "generate")
+NAV_ESTIMATES = ("paper_sum", "weighted_mean")
+SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
+
+
+class ConfigError(ValueError):
+    """A configuration value is invalid; the message names the key and the valid values."""
+
+
+def _check(cond: bool, key: str, msg: str) -> None:
+    if not cond:
+        raise ConfigError(f"config key '{key}': {msg}")
+
+
+def _choice(value: str, key: str, valid: tuple[str, ...]) -> None:
+    _check(value in valid, key, f"{value!r} is not valid; choose one of {list(valid)}")
+
+
+@dataclass
+class SceneConfig:
+    name: str = "paper"  # size preset, one of SCENE_SIZES
+    n_scenes: int = 3  # scenes generated for the experiment
+    seed: int = 0  # scene i uses seed + i
+    n_rooms: int = 9
+    n_furniture: int = 26
+    n_objects: int = 30
+    room_size_min: float = 3.0  # [m]
+    room_size_max: float = 5.0  # [m]
+    door_width: float = 1.0  # [m] opening width of a normal door
+    narrow_door_width: float = 0.55  # [m]; narrower than the robot, collides on execution
+    narrow_door_prob: float = 0.15
+    partly_closed_door_prob: float = 0.25  # door leaf blocks part of the opening (true map only)
+    hard_placement_prob: float = 0.3  # object deep on a wide surface, high shelf, clutter
+    wall_thickness: float = 0.1  # [m]
+    wall_height: float = 2.5  # [m]
+    grid_resolution: float = 0.05  # [m] per occupancy cell
+    import_path: Optional[str] = None  # a user scene (our JSON or ProcTHOR house JSON)
+
+    def validate(self) -> None:
+        _choice(self.name, "scene.name", SCENE_SIZES)
+        _check(self.n_scenes >= 1, "scene.n_scenes", f"must be >= 1, got {self.n_scenes}")
+        _check(self.n_rooms >= 2, "scene.n_rooms", f"must be >= 2, got {self.n_rooms}")
+        _check(self.n_furniture >= self.n_rooms, "scene.n_furniture", "must be >= scene.n_rooms")
+        _check(self.n_objects >= 1, "scene.n_objects", f"must be >= 1, got {self.n_objects}")
+        _check(0 < self.room_size_min <= self.room_size_max, "scene.room_size_min",
+               "must satisfy 0 < room_size_min <= room_size_max")
+        for k in ("narrow_door_prob", "partly_closed_door_prob", "hard_placement_prob"):
+            v = getattr(self, k)
+            _check(0.0 <= v <= 1.0, f"scene.{k}", f"must be in [0, 1], got {v}")
+        _check(0.01 <= self.grid_resolution <= 0.5, "scene.grid_resolution",
+               f"must be in [0.01, 0.5] m, got {self.grid_resolution}")
+
+
+@dataclass
+class MissionConfig:
+    n_missions: int = 10  # missions per scene
+    commands_per_mission: int = 3
+    objects_per_command: int = 3  # objects each command asks for (the paper: 3)
+    include_paper_mission: bool = True  # mission 0 is the paper's three commands
+    seed: int = 0
+    limit_missions: Optional[int] = None  # run only the first N missions (smoke runs)
+
+    def validate(self) -> None:
+        _check(self.n_missions >= 1, "mission.n_missions", f"must be >= 1, got {self.n_missions}")
+        _check(self.commands_per_mission >= 1, "mission.commands_per_mission", "must be >= 1")
+        _check(1 <= self.objects_per_command <= 6, "mission.objects_per_command",
+               f"must be in [1, 6], got {self.objects_per_command}")
+        _check(self.limit_missions is None or self.limit_missions >= 1, "mission.limit_missions",
+               "must be null or >= 1")
+
+
+@dataclass
+class LLMConfig:
+    backend: str = "embedded"  # one of LLM_BACKENDS
+    model: str = ""  # GGUF path (embedded; "" = the packaged gemma3-270m) or Ollama model name
+    host: str = "http://127.0.0.1:11434"  # Ollama server
+    temperature: float = 0.8
+    top_p: float = 0.95
+    max_tokens: int = 384
+    seed: int = 0
+    n_threads: int = 2
+    n_ctx: int = 8192
+    timeout_s: float = 120.0  # per call [s]
+    cache_mode: str = "readwrite"  # one of CACHE_MODES
+    cache_dir: str = "data/llm_cache"
+    proposal_mode: str = "score"  # how candidates are proposed, one of PROPOSAL_MODES
+    cost_inference_mode: str = "score"  # manipulation-cost inference, one of PROPOSAL_MODES
+    constrain_names: bool = True  # enumerate valid scene-graph names in schemas
+    repair_retries: int = 2  # re-asks after malformed output
+    calibrate: bool = True  # score calibration against a content-free prompt
+
+    def validate(self) -> None:
+        _choice(self.backend, "llm.backend", LLM_BACKENDS)
+        _check(0.0 <= self.temperature <= 2.0, "llm.temperature",
+               f"must be in [0, 2], got {self.temperature}")
+        _check(0.0 < self.top_p <= 1.0, "llm.top_p", f"must be in (0, 1], got {self.top_p}")
+        _check(self.max_tokens >= 1, "llm.max_tokens", "must be >= 1")
+        _check(self.n_threads >= 1, "llm.n_threads", "must be >= 1")
+        _check(self.n_ctx >= 512, "llm.n_ctx", "must be >= 512")
+        _check(self.timeout_s > 0, "llm.timeout_s", "must be > 0")
+        _choice(self.cache_mode, "llm.cache_mode", CACHE_MODES)
+        _choice(self.proposal_mode, "llm.proposal_mode", PROPOSAL_MODES)
+        _choice(self.cost_inference_mode, "llm.cost_inference_mode", PROPOSAL_MODES)
+        _check(0 <= self.repair_retries <= 10, "llm.repair_retries", "must be in [0, 10]")
+
+
+@dataclass
+class PlannerConfig:
+    names: list[str] = field(default_factory=lambda: list(PLANNER_NAMES))  # planners to run
+    M: int = 3  # plan candidates per command
+    max_regenerations: int = 3  # feasibility-repair rounds per candidate (bounded loop)
+    nav_estimate: str = "paper_sum"  # one of NAV_ESTIMATES
+    epsilon_d: float = 1.0  # [m] path-overlap distance scale of P°
+    moma_max_replans: int = 3  # MoMa-LLM replans after execution failures, per command
+    sayplan_max_iterations: int = 3  # SayPlan symbolic-simulator replanning rounds
+
+    def validate(self) -> None:
+        _check(len(self.names) >= 1, "planner.names", f"must list at least one of {list(PLANNER_NAMES)}")
+        for n in self.names:
+            _choice(n, "planner.names", PLANNER_NAMES)
+        _check(len(set(self.names)) == len(self.names), "planner.names", "has duplicates")
+        _check(1 <= self.M <= 20, "planner.M", f"must be in [1, 20], got {self.M}")
+        _check(0 <= self.max_regenerations <= 20, "planner.max_regenerations", "must be in [0, 20]")
+        _choice(self.nav_estimate, "planner.nav_estimate", NAV_ESTIMATES)
+        _check(self.epsilon_d > 0, "planner.epsilon_d", f"must be > 0, got {self.epsilon_d}")
+        _check(0 <= self.moma_max_replans <= 20, "planner.moma_max_replans", "must be in [0, 20]")
+        _check(1 <= self.sayplan_max_iterations <= 20, "planner.sayplan_max_iterations",
+               "must be in [1, 20]")
+
+
+@dataclass
+class SimConfig:
+    robot_radius: float = 0.25  # [m] base footprint radius (grid inflation)
+    base_speed: float = 0.5  # [m/s]
+    turn_speed: float = 1.5  # [rad/s]
+    step: float = 0.05  # [m] one move-forward control
+    turn: float = 0.785398  # [rad] one turn control (45°)
+    recovery_time: float = 3.0  # [s] backing off after a collision
+    backoff: float = 0.15  # [m]
+    max_nav_replans: int = 6  # bounded replans after collisions per navigate action
+    n_l: int = 5  # sampled base poses per manipulation (paper's N_l)
+    ik_max_iters: int = 150
+    ik_tol: float = 0.015  # [m] position tolerance of IK convergence
+    ik_dt: float = 0.05  # [s] IK integration step
+    joint_speed: float = 1.0  # [rad/s] arm joint velocity limit (trial time)
+    grasp_time: float = 2.0  # [s] closing / opening the gripper
+    gamma_nav: float = 10.0  # collision-count normalising factor γ_nav
+    gamma_man: float = 100.0  # failure-rate normalising factor γ_man
+    seed: int = 0
+
+    def validate(self) -> None:
+        _check(0.05 <= self.robot_radius <= 1.0, "sim.robot_radius", "must be in [0.05, 1] m")
+        _check(self.base_speed > 0, "sim.base_speed", "must be > 0")
+        _check(self.turn_speed > 0, "sim.turn_speed", "must be > 0")
+        _check(0.005 <= self.step <= 0.5, "sim.step", "must be in [0.005, 0.5] m")
+        _check(1 <= self.n_l <= 50, "sim.n_l", f"must be in [1, 50], got {self.n_l}")
+        _check(0 <= self.max_nav_replans <= 50, "sim.max_nav_replans", "must be in [0, 50]")
+        _check(self.ik_max_iters >= 1, "sim.ik_max_iters", "must be >= 1")
+        _check(self.gamma_nav >= 0 and self.gamma_man >= 0, "sim.gamma_nav",
+               "gamma_nav and gamma_man must be >= 0")
+
+
+@dataclass
+class MetricsConfig:
+    gamma_obj: float = 100.0  # unfulfilled-object normalising factor γ_obj
+    bootstrap_samples: int = 2000
+    ci: float = 0.95
+    seed: int = 0
+
+    def validate(self) -> None:
+        _check(self.gamma_obj >= 0, "metrics.gamma_obj", "must be >= 0")
+        _check(100 <= self.bootstrap_samples <= 100000, "metrics.bootstrap_samples",
+               "must be in [100, 100000]")
+        _check(0.5 <= self.ci < 1.0, "metrics.ci", f"must be in [0.5, 1), got {self.ci}")
+
+
+@dataclass
+class ExperimentConfig:
+    """The root config; ``conf/config.yaml`` composes it."""
+
+    experiment: str = "paper"
+    seed: int = 0
+    data_dir: str = "data"
+    verbose: bool = False
+    scene: SceneConfig = field(default_factory=SceneConfig)
+    mission: MissionConfig = field(default_factory=MissionConfig)
+    llm: LLMConfig = field(default_factory=LLMConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    sim: SimConfig = field(default_factory=SimConfig)
+    metrics: MetricsConfig = field(default_factory=MetricsConfig)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        for group in (self.scene, self.mission, self.llm, self.planner, self.sim, self.metrics):
+            group.validate()
+
+
+def from_dict(d: dict) -> ExperimentConfig:
+    """Build and validate an ExperimentConfig from a plain nested dict (e.g. params.yaml)."""
+    import dataclasses
+
+    def build(cls, data, prefix):
+        names = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = set(data) - set(names)
+        if unknown:
+            raise ConfigError(f"config key '{prefix}{sorted(unknown)[0]}' is unknown; valid keys: "
+                              f"{sorted(names)}")
+        kwargs = {}
+        for k, v in data.items():
+            sub = {"scene": SceneConfig, "mission": MissionConfig, "llm": LLMConfig,
+                   "planner": PlannerConfig, "sim": SimConfig, "metrics": MetricsConfig}
+            if cls is ExperimentConfig and k in sub:
+                kwargs[k] = build(sub[k], v or {}, f"{k}.")
+            else:
+                kwargs[k] = v
+        obj = cls(**kwargs)
+        if cls is not ExperimentConfig:
+            obj.validate()
+        return obj
+
+    return build(ExperimentConfig, d, "")
+
+
+def to_dict(cfg: ExperimentConfig) -> dict:
+    import dataclasses
+
+    return dataclasses.asdict(cfg)

@@ -1,0 +1,117 @@
+"""Occupancy grid graph G^o: free/occupied cells from walls, door leaves and furniture footprints.
+
+Two maps per scene (paper §III, §IV-B):
+- ``presumed``: what the planner believes; every door is open.
+- ``true``: door leaves as they are; partly closed or narrow doors block the way.
+Both are inflated by the robot radius, so a free cell is a cell the base centre may occupy.
+
+Cell (i, j) = (row, col) covers x in [ox + j*res, ox + (j+1)*res), y in [oy + i*res, ...).
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from interllm.scene.graph import SceneGraph
+
+
+@dataclass
+class OccupancyGrid:
+    occupied: np.ndarray  # bool [rows, cols]; True = base centre may not be there
+    resolution: float  # [m] per cell
+    origin: tuple[float, float]  # world (x, y) of cell (0, 0)'s corner [m]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.occupied.shape  # type: ignore[return-value]
+
+    @property
+    def free(self) -> np.ndarray:
+        return ~self.occupied
+
+    def world_to_cell(self, xy) -> np.ndarray:
+        """World points [m] (..., 2) -> integer cells (..., 2) as (row, col)."""
+        xy = np.asarray(xy, dtype=float)
+        col = np.floor((xy[..., 0] - self.origin[0]) / self.resolution).astype(int)
+        row = np.floor((xy[..., 1] - self.origin[1]) / self.resolution).astype(int)
+        return np.stack([row, col], axis=-1)
+
+    def cell_to_world(self, rc) -> np.ndarray:
+        """Cells (..., 2) as (row, col) -> world (x, y) of the cell centres [m]."""
+        rc = np.asarray(rc)
+        x = self.origin[0] + (rc[..., 1] + 0.5) * self.resolution
+        y = self.origin[1] + (rc[..., 0] + 0.5) * self.resolution
+        return np.stack([x, y], axis=-1)
+
+    def in_bounds(self, rc) -> bool:
+        r, c = int(rc[0]), int(rc[1])
+        return 0 <= r < self.shape[0] and 0 <= c < self.shape[1]
+
+    def is_free(self, rc) -> bool:
+        return self.in_bounds(rc) and not bool(self.occupied[int(rc[0]), int(rc[1])])
+
+    def copy(self) -> "OccupancyGrid":
+        return OccupancyGrid(self.occupied.copy(), self.resolution, self.origin)
+
+    def to_npz_bytes(self, **extra: np.ndarray) -> bytes:
+        buf = io.BytesIO()
+        np.savez_compressed(buf, occupied=self.occupied, resolution=np.array(self.resolution),
+                            origin=np.array(self.origin), **extra)
+        return buf.getvalue()
+
+
+def _fill_box(occ: np.ndarray, origin, res, x0, y0, x1, y1, pad: float) -> None:
+    c0 = int(np.floor((x0 - pad - origin[0]) / res))
+    c1 = int(np.ceil((x1 + pad - origin[0]) / res))
+    r0 = int(np.floor((y0 - pad - origin[1]) / res))
+    r1 = int(np.ceil((y1 + pad - origin[1]) / res))
+    occ[max(r0, 0):max(r1, 0), max(c0, 0):max(c1, 0)] = True
+
+
+def rasterize(scene: SceneGraph, resolution: float = 0.05, robot_radius: float = 0.25,
+              doors: str = "presumed", inflate: bool = True) -> OccupancyGrid:
+    """Occupancy grid of a scene.
+
+    doors: "presumed" (all doors open) or "true" (door leaves as they are).
+    inflate: grow obstacles by ``robot_radius`` (configuration space of the base centre).
+    """
+    if doors not in ("presumed", "true"):
+        raise ValueError(f"doors must be 'presumed' or 'true', got {doors!r}")
+    x0, y0, x1, y1 = scene.bounds
+    margin = 0.5
+    origin = (round(x0 - margin, 6), round(y0 - margin, 6))
+    cols = int(np.ceil((x1 - x0 + 2 * margin) / resolution))
+    rows = int(np.ceil((y1 - y0 + 2 * margin) / resolution))
+    occ = np.zeros((rows, cols), dtype=bool)
+
+    # Outside every room is occupied.
+    inside = np.zeros_like(occ)
+    for r in scene.rooms.values():
+        rx0, ry0, rx1, ry1 = r.bounds
+        _fill_box(inside, origin, resolution, rx0, ry0, rx1, ry1, 0.0)
+    occ |= ~inside
+    for w in scene.walls.values():
+        t = w.thickness / 2
+        _fill_box(occ, origin, resolution, min(w.start[0], w.end[0]) - t, min(w.start[1], w.end[1]) - t,
+                  max(w.start[0], w.end[0]) + t, max(w.start[1], w.end[1]) + t, 0.0)
+    for f in scene.furniture.values():
+        _fill_box(occ, origin, resolution, *f.footprint, 0.0)
+    if doors == "true":
+        for d in scene.doors.values():
+            seg = d.leaf_segment()
+            if seg is None:
+                continue
+            (ax, ay), (bx, by) = seg
+            t = 0.03
+            _fill_box(occ, origin, resolution, min(ax, bx) - t, min(ay, by) - t,
+                      max(ax, bx) + t, max(ay, by) + t, 0.0)
+    if inflate and robot_radius > 0:
+        rad = int(np.ceil(robot_radius / resolution))
+        yy, xx = np.mgrid[-rad:rad + 1, -rad:rad + 1]
+        disk = (xx * xx + yy * yy) <= rad * rad
+        occ = ndimage.binary_dilation(occ, structure=disk)
+    return OccupancyGrid(occupied=occ, resolution=resolution, origin=origin)
