@@ -33,6 +33,10 @@ class CommandResult:
     llm_tokens_in: int = 0
     llm_tokens_out: int = 0
     notes: list[str] = field(default_factory=list)
+    # Manipulation-cost inferences made while estimating (Inter-LLM): one dict per inferred
+    # action: {"action": str(Action), "predicted": "easy|medium|hard|unknown", "estimate": float}.
+    # The metrics join them with executed actions for the paper's Table II accuracy.
+    cost_inferences: list[dict] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
         return {
@@ -47,6 +51,7 @@ class CommandResult:
             "llm_tokens_in": self.llm_tokens_in,
             "llm_tokens_out": self.llm_tokens_out,
             "notes": list(self.notes),
+            "cost_inferences": list(self.cost_inferences),
         }
 
 
