@@ -11,8 +11,9 @@ Adding a planner: one module defining a class with ``name`` and ``run_command``,
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol
+from typing import Any, Protocol
 
 from interllm.planning.domain import Plan, plan_to_list
 from interllm.scene.graph import Command

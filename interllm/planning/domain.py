@@ -36,7 +36,7 @@ class Action:
         return {"action": self.kind, "object": self.obj, "furniture": self.furniture}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Action":
+    def from_dict(cls, d: dict) -> Action:
         kind = d.get("action") or d.get("kind")
         if kind == "navigate":
             return cls("navigate", furniture=str(d.get("furniture")), room=d.get("room"))

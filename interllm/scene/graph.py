@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import copy
 import json
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
-from typing import Any, Iterable
+from typing import Any
 
 import networkx as nx
 
@@ -186,7 +187,7 @@ class SceneGraph:
         b = [r.bounds for r in self.rooms.values()]
         return min(v[0] for v in b), min(v[1] for v in b), max(v[2] for v in b), max(v[3] for v in b)
 
-    def copy(self) -> "SceneGraph":
+    def copy(self) -> SceneGraph:
         return copy.deepcopy(self)
 
     def move_object(self, object_id: str, furniture_id: str, position: Vec3 | None = None) -> None:
@@ -232,7 +233,7 @@ class SceneGraph:
         return json.dumps(self.to_dict(), indent=1, sort_keys=True) + "\n"
 
     @classmethod
-    def from_dict(cls, d: dict) -> "SceneGraph":
+    def from_dict(cls, d: dict) -> SceneGraph:
         def tup(v):
             return tuple(tup(x) for x in v) if isinstance(v, list) else v
 
@@ -255,7 +256,7 @@ class SceneGraph:
         )
 
     @classmethod
-    def from_json(cls, text: str) -> "SceneGraph":
+    def from_json(cls, text: str) -> SceneGraph:
         return cls.from_dict(json.loads(text))
 
 
@@ -287,7 +288,7 @@ class Mission:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Mission":
+    def from_dict(cls, d: dict) -> Mission:
         cmds = tuple(
             Command(id=c["id"], text=c["text"],
                     goal=Goal(categories=tuple(c["goal"]["categories"]),

@@ -54,7 +54,7 @@ class OccupancyGrid:
     def is_free(self, rc) -> bool:
         return self.in_bounds(rc) and not bool(self.occupied[int(rc[0]), int(rc[1])])
 
-    def copy(self) -> "OccupancyGrid":
+    def copy(self) -> OccupancyGrid:
         return OccupancyGrid(self.occupied.copy(), self.resolution, self.origin)
 
     def to_npz_bytes(self, **extra: np.ndarray) -> bytes:

@@ -23,7 +23,7 @@ class Trajectory:
     joint_names: tuple[str, ...] = ()
 
     @staticmethod
-    def empty(n_joints: int = 0, joint_names: tuple[str, ...] = ()) -> "Trajectory":
+    def empty(n_joints: int = 0, joint_names: tuple[str, ...] = ()) -> Trajectory:
         return Trajectory(np.zeros(0), np.zeros((0, 3)), np.zeros((0, n_joints)), joint_names)
 
 
@@ -75,7 +75,7 @@ class ActionResult:
         return d
 
     @classmethod
-    def from_record(cls, d: dict) -> "ActionResult":
+    def from_record(cls, d: dict) -> ActionResult:
         return cls(
             action=Action.from_dict(d["action"]), success=d["success"], cost=d["cost"],
             time=d["time"], t_start=d.get("t_start", 0.0), collisions=d["collisions"],

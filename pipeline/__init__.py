@@ -1,0 +1,1 @@
+"""Thin DVC stage entry points: load config, read inputs, call one library function, write outputs."""

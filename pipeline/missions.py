@@ -1,0 +1,8 @@
+"""Stage missions: every planner on every mission in MuJoCo, logged to MCAP."""
+
+from interllm.experiment import run_missions
+from pipeline._common import stage_main
+
+if __name__ == "__main__":
+    stage_main("missions", lambda cfg, raw, data: run_missions(
+        cfg, data / "scenes", data / "candidates", data / "runs", resolved_config=raw))

@@ -1,0 +1,45 @@
+"""Hydra entry point: the whole pipeline (all five stages) for one config, or a sweep.
+
+    python -m pipeline.run experiment=quick
+    python -m pipeline.run -m experiment=m_ablation planner.M=1,3,5
+    python -m pipeline.run -m hydra/launcher=joblib hydra.launcher.n_jobs=2 llm.temperature=0.2,0.8
+
+Each run writes into its own Hydra output folder (outputs/... or multirun/.../<job>/data), with
+the resolved config and provenance; the LLM response cache is shared (llm.cache_dir), so a sweep
+never asks the model the same question twice. For DVC-tracked runs use `dvc repro` /
+`dvc exp run` instead; both paths call the same library functions.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig, OmegaConf
+
+from pipeline._common import ROOT, setup_logging
+from pipeline._hydra import CONF_DIR, register
+
+register()
+
+
+def run(cfg: DictConfig) -> dict:
+    from interllm.experiment import run_all
+
+    typed = OmegaConf.to_object(cfg)  # validates (ConfigError names the key)
+    setup_logging(typed.verbose)
+    cache = Path(typed.llm.cache_dir)
+    if not cache.is_absolute():
+        typed.llm.cache_dir = str(ROOT / cache)
+    out = Path(HydraConfig.get().runtime.output_dir) / "data"
+    return run_all(typed, out, resolved_config=OmegaConf.to_container(cfg, resolve=True))
+
+
+@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+def main(cfg: DictConfig) -> None:
+    run(cfg)
+
+
+if __name__ == "__main__":
+    main()

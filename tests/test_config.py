@@ -1,0 +1,106 @@
+"""Configuration: every experiment composes, bad values fail with the key named, params.yaml is
+the composition of conf/ (as DVC's own Hydra integration writes it)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+
+from interllm.config import PLANNER_NAMES, ConfigError, ExperimentConfig, from_dict
+from pipeline._hydra import compose
+from pipeline.params import compose_params
+
+ROOT = Path(__file__).resolve().parent.parent
+EXPERIMENTS = sorted(p.stem for p in (ROOT / "conf" / "experiment").glob("*.yaml"))
+
+
+def test_experiment_files_exist():
+    assert {"paper", "quick", "temperature_ablation", "m_ablation"} <= set(EXPERIMENTS)
+
+
+@pytest.mark.parametrize("name", EXPERIMENTS)
+def test_every_experiment_composes_and_validates(name):
+    cfg = OmegaConf.to_object(compose([f"experiment={name}"]))
+    assert isinstance(cfg, ExperimentConfig)
+    assert cfg.experiment == name
+
+
+def test_paper_experiment_is_the_papers_protocol():
+    cfg = OmegaConf.to_object(compose([]))
+    assert cfg.experiment == "paper"
+    assert (cfg.scene.n_rooms, cfg.scene.n_furniture, cfg.scene.n_objects) == (9, 26, 30)
+    assert cfg.scene.n_scenes == 3 and cfg.mission.n_missions == 10
+    assert cfg.mission.commands_per_mission == 3 and cfg.mission.include_paper_mission
+    assert cfg.planner.names == list(PLANNER_NAMES) and cfg.planner.M == 3
+    assert cfg.llm.temperature == 0.8 and cfg.llm.backend == "embedded"
+    assert (cfg.sim.gamma_nav, cfg.sim.gamma_man, cfg.metrics.gamma_obj) == (10, 100, 100)
+
+
+def test_quick_is_one_scene_one_mission_all_planners():
+    cfg = OmegaConf.to_object(compose(["experiment=quick"]))
+    assert cfg.scene.n_scenes == 1 and cfg.mission.n_missions == 1
+    assert cfg.planner.names == list(PLANNER_NAMES)
+
+
+@pytest.mark.parametrize("override, key, hint", [
+    ("llm.temperature=-1", "llm.temperature", "[0, 2]"),
+    ("planner.M=0", "planner.M", "[1, 20]"),
+    ("planner.names=[foo]", "planner.names", "inter_llm"),
+    ("llm.backend=openai", "llm.backend", "embedded"),
+    ("llm.cache_mode=sometimes", "llm.cache_mode", "replay"),
+    ("sim.n_l=0", "sim.n_l", "[1, 50]"),
+])
+def test_out_of_range_values_name_the_key_and_valid_values(override, key, hint):
+    with pytest.raises(ConfigError) as e:
+        OmegaConf.to_object(compose([override]))
+    assert f"'{key}'" in str(e.value) and hint in str(e.value)
+
+
+def test_unknown_key_fails_at_composition_naming_it():
+    with pytest.raises(Exception) as e:
+        compose(["llm.temprature=0.5"])
+    assert "llm.temprature" in str(e.value)
+
+
+def test_wrong_type_fails_at_composition():
+    with pytest.raises(Exception) as e:
+        compose(["planner.M=three"])
+    assert "M" in str(e.value)
+
+
+def test_unknown_planner_group_lists_choices():
+    with pytest.raises(Exception) as e:
+        compose(["planner=foo"])
+    msg = str(e.value)
+    assert "planner/foo" in msg and "inter_llm" in msg
+
+
+def test_from_dict_rejects_unknown_keys_in_params_file():
+    with pytest.raises(ConfigError, match="'llm.temprature' is unknown"):
+        from_dict({"llm": {"temprature": 0.3}})
+
+
+def test_committed_params_yaml_is_the_composition_of_conf():
+    assert (ROOT / "params.yaml").read_text() == compose_params([]), (
+        "params.yaml is stale: run `python -m pipeline.params`")
+
+
+def test_dvc_hydra_composition_writes_the_same_params(tmp_path):
+    """DVC's own compose_and_dump (what `dvc exp run -S` uses) gives the committed params.yaml."""
+    code = (
+        "import sys; from dvc.utils.hydra import compose_and_dump; "
+        f"compose_and_dump(sys.argv[1], {str(ROOT / 'conf')!r}, None, 'config', {str(ROOT)!r}, [])"
+    )
+    out = tmp_path / "params.yaml"
+    subprocess.run([sys.executable, "-c", code, str(out)], check=True, cwd=tmp_path)
+    assert out.read_text() == (ROOT / "params.yaml").read_text()
+
+
+def test_dvc_config_enables_hydra_and_disables_analytics():
+    text = (ROOT / ".dvc" / "config").read_text()
+    assert "analytics = false" in text
+    assert "[hydra]" in text and "enabled = true" in text
