@@ -1,0 +1,100 @@
+"""End to end: `experiment=quick` through real `dvc repro` on the real embedded model.
+
+Runs in a copy of the working tree with an EMPTY LLM cache, so the model really answers; then
+checks that DVC sees everything up to date, that a clean rerun from the (now warm) cache gives a
+byte-identical metrics.json, and that `dvc exp run -S planner.M=1` is listed by `dvc exp show`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+BIN = Path(sys.executable).parent
+SKIP = {".git", ".venv", "data", "outputs", "multirun", ".pytest_cache", ".ruff_cache", "__pycache__",
+        "dvc.lock"}
+
+
+def _copy_tree(dst: Path) -> None:
+    for p in ROOT.iterdir():
+        if p.name in SKIP or p.name.endswith(".egg-info"):
+            continue
+        if p.is_dir():
+            shutil.copytree(p, dst / p.name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "tmp"))
+        else:
+            shutil.copy2(p, dst / p.name)
+    (dst / "data").mkdir()
+
+
+def _run(args, cwd, env, timeout=1800):
+    r = subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    assert r.returncode == 0, f"{' '.join(map(str, args))} failed:\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    return r.stdout + r.stderr
+
+
+@pytest.fixture(scope="module")
+def quick_repo(tmp_path_factory):
+    repo = tmp_path_factory.mktemp("quick")
+    _copy_tree(repo)
+    env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}",
+           "INTERLLM_PROGRESS": "0", "DVC_NO_ANALYTICS": "1"}
+    _run(["git", "init", "-q"], repo, env)
+    _run(["git", "-c", "user.email=t@t", "-c", "user.name=t", "add", "-A"], repo, env)
+    _run(["git", "-c", "user.email=t@t", "-c", "user.name=t", "commit", "-qm", "copy"], repo, env)
+    _run([sys.executable, "-m", "pipeline.params", "experiment=quick"], repo, env)
+    out = _run([str(BIN / "dvc"), "repro"], repo, env)
+    return repo, env, out
+
+
+def test_quick_produces_every_artifact(quick_repo):
+    repo, _, _ = quick_repo
+    d = repo / "data"
+    scenes = [p for p in (d / "scenes").iterdir() if p.is_dir()]
+    assert len(scenes) == 1
+    for name in ("scene.json", "grid.npz", "scene.xml", "missions.json", "topdown.png"):
+        assert (scenes[0] / name).stat().st_size > 0, name
+    for planner in ("inter_llm", "sayplan", "moma_llm"):
+        mcaps = list((d / "runs" / planner).rglob("*.mcap"))
+        assert len(mcaps) == 1 and mcaps[0].stat().st_size > 0, planner
+    metrics = json.loads((d / "metrics" / "metrics.json").read_text())
+    assert metrics, "metrics.json is empty"
+    assert (d / "report" / "report.html").stat().st_size > 0
+    assert (d / "runs" / "provenance.json").is_file()
+
+
+def test_the_real_model_answered(quick_repo):
+    repo, _, _ = quick_repo
+    calls = [json.loads(line) for line in (repo / "data" / "candidates" / "llm_calls.jsonl").read_text().splitlines()]
+    assert calls and any(not c.get("cached", c.get("cache_hit", True)) for c in calls)
+    assert any((repo / "data" / "llm_cache").rglob("*.json"))
+
+
+def test_second_repro_runs_no_stage(quick_repo):
+    repo, env, _ = quick_repo
+    out = _run([str(BIN / "dvc"), "repro"], repo, env)
+    assert "Running stage" not in out, out
+    status = _run([str(BIN / "dvc"), "status"], repo, env)
+    assert "up to date" in status.lower(), status
+
+
+def test_clean_rerun_gives_byte_identical_metrics(quick_repo):
+    repo, env, _ = quick_repo
+    first = (repo / "data" / "metrics" / "metrics.json").read_bytes()
+    _run([str(BIN / "dvc"), "repro", "--force"], repo, env)
+    assert (repo / "data" / "metrics" / "metrics.json").read_bytes() == first
+
+
+def test_dvc_exp_run_with_a_param_is_listed(quick_repo):
+    repo, env, _ = quick_repo
+    _run(["git", "-c", "user.email=t@t", "-c", "user.name=t", "add", "-A"], repo, env)
+    _run(["git", "-c", "user.email=t@t", "-c", "user.name=t", "commit", "-qm", "quick baseline"], repo, env)
+    _run([str(BIN / "dvc"), "exp", "run", "-S", "experiment=quick", "-S", "planner.M=1"], repo, env)
+    show = _run([str(BIN / "dvc"), "exp", "show", "--json"], repo, env)
+    assert '"M": 1' in show.replace(" ", "").replace('"M":1', '"M": 1')
