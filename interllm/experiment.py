@@ -152,11 +152,13 @@ def run_aggregate(cfg: ExperimentConfig, runs_dir: Path, scenes_dir: Path, out_d
 
 
 def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_dir: Path,
-               out_dir: Path, extra: Iterable[tuple[str, Path]] = ()) -> None:
+               out_dir: Path, temperature_results: Iterable[tuple[str, Path]] = (),
+               m_results: Iterable[tuple[str, Path]] = ()) -> None:
+    """The report; ablation results are (label, metrics_dir) pairs, gathered where they exist."""
     from interllm.metrics import build_report
 
     build_report(Path(metrics_dir), Path(scenes_dir), Path(runs_dir), Path(out_dir), cfg,
-                 extra=list(extra))
+                 temperature_results=list(temperature_results), m_results=list(m_results))
 
 
 def run_all(cfg: ExperimentConfig, data_dir: Path, resolved_config: dict | None = None) -> dict:

@@ -1,0 +1,453 @@
+"""Per-object, per-command and per-mission metrics of executed missions (paper §V).
+
+Input: one MissionRecord per run, ``data/runs/<planner>/<scene>/<mission>.json``::
+
+    {"planner", "scene_id", "mission_id", "sim_time",
+     "commands": [{"command_id", "text", "goal": {"categories", "target_furniture", "n_objects"},
+                   "summary": CommandResult.summary(), "actions": [ActionResult.to_record()],
+                   "final_locations": {object_id: furniture_id | "held"}}]}
+
+The paper's unit is the *object*. How executed actions become per-object metrics:
+
+* **Slots.** Command c asking for ``n = goal.n_objects`` objects has exactly n slots. Slot k is the
+  k-th distinct object the robot manipulated in that command, in order of first manipulation
+  (normally its first ``pickup``; a ``place`` of an object carried over from an earlier command
+  also opens a slot). Objects beyond the n-th (e.g. a replacement after a failed pickup the planner
+  gave up on) are folded into slot n: their actions add to slot n's costs and slot n counts as
+  fulfilled if any object folded into it is.
+* **Navigation.** A ``navigate`` action is attributed to the object of the next pickup/place in the
+  same command, or to the previous one if none follows; if the command manipulated nothing at all,
+  its navigation goes to slot 1.
+* **Unfilled slots** (the planner never manipulated a k-th object) have ``sr_man = 0``,
+  ``sr_obj = 0`` and zero cc/d/t, so m_overall = γ_man + γ_obj for them.
+* ``cc`` = Σ collisions, ``d`` = Σ distance [m] of the slot's navigate actions; ``t_nav`` /
+  ``t_man`` = Σ simulated time [s] of its navigate / pickup+place actions, ``t_exe = t_nav + t_man``;
+  ``sr_man`` = mean ``success_rate`` of its pickup/place actions (0 without any).
+* ``sr_obj`` ∈ {0, 1}: the object has a category in ``goal.categories`` (from the scene graph,
+  never from the LLM) and its location after the command (``final_locations``; if absent, its
+  last successful place in the command, else its place in the scene) is one of
+  ``goal.target_furniture``.
+* ``m_overall = γ_nav·cc + t_exe + d + γ_man·(1 − sr_man) + γ_obj·(1 − sr_obj)``
+  (γ_nav, γ_man: ``SimConfig``; γ_obj: ``MetricsConfig``).
+
+Per-command rows sum cc, d, t and m_overall over the command's slots and average sr_man and
+sr_obj; per-mission rows do the same over all slots of the mission. ``object_index`` numbers the
+slots 1..N along the mission (obj_1..obj_9 in the paper's Table III); ``m_overall_cum`` is the
+running sum of m_overall along it (the paper's overall-metric figure).
+
+Tables are lists of dicts (no pandas); ``write_csv`` writes them with the csv module.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional
+
+from interllm.io import atomic_write_text, read_json
+from interllm.planning.domain import Action
+
+MANIPULATION_KINDS = ("pickup", "place")
+PER_OBJECT_FIELDS = ("planner", "scene", "mission", "command_index", "command", "slot", "object_index",
+                     "object", "category", "filled", "n_actions", "cc", "d", "t_nav", "t_man", "t_exe",
+                     "sr_man", "sr_obj", "m_overall", "m_overall_cum")
+PER_COMMAND_FIELDS = ("planner", "scene", "mission", "command_index", "command", "n_objects",
+                      "n_filled", "n_fulfilled", "cc", "d", "t_exe", "sr_man", "sr_obj", "m_overall",
+                      "llm_calls", "llm_tokens_in", "llm_tokens_out", "regenerations", "replans",
+                      "dropped_candidates")
+PER_MISSION_FIELDS = ("planner", "scene", "mission", "n_commands", "n_objects", "n_fulfilled", "cc", "d",
+                      "t_exe", "sr_man", "sr_obj", "m_overall", "llm_calls", "llm_tokens_in",
+                      "llm_tokens_out", "sim_time")
+
+
+class MetricsInputError(ValueError):
+    """A run record or scene file is malformed; the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class Gammas:
+    """Normalising factors of m_overall: γ_nav [s/collision], γ_man [s], γ_obj [s]."""
+
+    nav: float = 10.0
+    man: float = 100.0
+    obj: float = 100.0
+
+    @classmethod
+    def from_config(cls, cfg: Any) -> Gammas:
+        """From an ExperimentConfig (``sim.gamma_nav``, ``sim.gamma_man``, ``metrics.gamma_obj``)."""
+        return cls(nav=float(cfg.sim.gamma_nav), man=float(cfg.sim.gamma_man),
+                   obj=float(cfg.metrics.gamma_obj))
+
+
+def m_overall(cc: float, t_exe: float, d: float, sr_man: float, sr_obj: float, g: Gammas) -> float:
+    """m_overall = γ_nav·cc + t_exe + d + γ_man·(1 − sr_man) + γ_obj·(1 − sr_obj).
+
+    cc: collisions; t_exe: simulated time [s]; d: navigated distance [m]; sr_man, sr_obj in [0, 1].
+    """
+    return g.nav * cc + t_exe + d + g.man * (1.0 - sr_man) + g.obj * (1.0 - sr_obj)
+
+
+# ---- reading ---------------------------------------------------------------------------------
+def _require(d: Mapping, key: str, where: str) -> Any:
+    if not isinstance(d, Mapping) or key not in d:
+        raise MetricsInputError(f"{where}: missing key '{key}' (see MissionRecord in "
+                                f"interllm/metrics/compute.py)")
+    return d[key]
+
+
+def validate_record(rec: Mapping, where: str = "MissionRecord") -> None:
+    """Raise MetricsInputError naming the first missing key of a MissionRecord."""
+    for k in ("planner", "scene_id", "mission_id", "commands"):
+        _require(rec, k, where)
+    for ci, c in enumerate(rec["commands"]):
+        w = f"{where}: commands[{ci}]"
+        for k in ("command_id", "goal", "actions"):
+            _require(c, k, w)
+        for k in ("categories", "target_furniture", "n_objects"):
+            _require(c["goal"], k, f"{w}.goal")
+        for ai, a in enumerate(c["actions"]):
+            for k in ("action", "success", "time"):
+                _require(a, k, f"{w}.actions[{ai}]")
+
+
+def load_runs(runs_dir: str | os.PathLike) -> list[dict]:
+    """All MissionRecords under ``runs_dir/<planner>/<scene>/<mission>.json``, in sorted path order."""
+    runs_dir = Path(runs_dir)
+    if not runs_dir.is_dir():
+        raise MetricsInputError(f"runs folder {runs_dir} does not exist; run the 'missions' stage "
+                                f"first or pass the folder holding <planner>/<scene>/<mission>.json")
+    out = []
+    for p in sorted(runs_dir.glob("*/*/*.json")):
+        rec = read_json(p)
+        if not isinstance(rec, dict) or "commands" not in rec:
+            continue  # another JSON file (e.g. a run manifest), not a MissionRecord
+        validate_record(rec, str(p))
+        rec = dict(rec)
+        rec.setdefault("_path", str(p.relative_to(runs_dir)))
+        out.append(rec)
+    return out
+
+
+def load_scene_categories(scenes_dir: str | os.PathLike, scene_ids: Iterable[str]) -> dict[str, dict]:
+    """{scene_id: {object_id: category}} and initial furniture, from ``scenes_dir/<id>/scene.json``.
+
+    Returns {scene_id: {"category": {obj: cat}, "furniture": {obj: furniture}}}.
+    """
+    out: dict[str, dict] = {}
+    for sid in sorted(set(scene_ids)):
+        p = Path(scenes_dir) / sid / "scene.json"
+        if not p.is_file():
+            raise MetricsInputError(f"scene file {p} is missing; object categories (for sr_obj) come "
+                                    f"from it. Run the 'scenes' stage or pass the right scenes_dir")
+        d = read_json(p)
+        objs = _require(d, "objects", str(p))
+        out[sid] = {"category": {o["id"]: o["category"] for o in objs},
+                    "furniture": {o["id"]: o.get("furniture") for o in objs}}
+    return out
+
+
+# ---- per object --------------------------------------------------------------------------------
+def _kind(a: Mapping) -> str:
+    return str(a.get("kind") or a["action"].get("action") or a["action"].get("kind"))
+
+
+def _obj(a: Mapping) -> Optional[str]:
+    act = a["action"]
+    return act.get("object") or act.get("obj")
+
+
+def action_string(a: Mapping) -> str:
+    """``str(Action)`` of an ActionResult record, e.g. ``pickup(apple_1, table_3)``."""
+    return str(Action.from_dict(a["action"]))
+
+
+def assign_slots(actions: list[Mapping], n_slots: int) -> tuple[list[int], list[list[str]]]:
+    """Slot index (0-based) of every action and the objects of every slot (rules in module doc)."""
+    n_slots = max(1, int(n_slots))
+    slot_of_obj: dict[str, int] = {}
+    objects: list[list[str]] = [[] for _ in range(n_slots)]
+    man_slot: list[Optional[int]] = []
+    for a in actions:
+        if _kind(a) in MANIPULATION_KINDS and _obj(a) is not None:
+            o = str(_obj(a))
+            if o not in slot_of_obj:
+                k = min(len(slot_of_obj), n_slots - 1)
+                slot_of_obj[o] = k
+                objects[k].append(o)
+            man_slot.append(slot_of_obj[o])
+        else:
+            man_slot.append(None)
+    out: list[int] = []
+    for i, s in enumerate(man_slot):
+        if s is not None:
+            out.append(s)
+            continue
+        nxt = next((x for x in man_slot[i + 1:] if x is not None), None)
+        prev = next((x for x in reversed(man_slot[:i]) if x is not None), None)
+        out.append(nxt if nxt is not None else prev if prev is not None else 0)
+    return out, objects
+
+
+def _location(obj: str, command: Mapping, scene: Mapping) -> Optional[str]:
+    fl = command.get("final_locations") or {}
+    if obj in fl:
+        return fl[obj]
+    loc = None
+    for a in command["actions"]:
+        if _obj(a) == obj and a.get("success"):
+            k = _kind(a)
+            loc = a["action"].get("furniture") if k == "place" else "held" if k == "pickup" else loc
+    if loc is not None:
+        return loc
+    return scene.get("furniture", {}).get(obj)
+
+
+def fulfilled(obj: str, command: Mapping, scene: Mapping) -> bool:
+    """sr_obj of one object: right category (scene graph) and ended on a target furniture."""
+    goal = command["goal"]
+    cat = scene.get("category", {}).get(obj)
+    return cat in set(goal["categories"]) and _location(obj, command, scene) in set(goal["target_furniture"])
+
+
+def mission_rows(rec: Mapping, scene: Mapping, g: Gammas) -> tuple[list[dict], list[dict], dict]:
+    """(per_object rows, per_command rows, per_mission row) of one MissionRecord.
+
+    scene: {"category": {obj: cat}, "furniture": {obj: furniture}} (``load_scene_categories``).
+    """
+    planner, sid, mid = str(rec["planner"]), str(rec["scene_id"]), str(rec["mission_id"])
+    objs_rows: list[dict] = []
+    cmd_rows: list[dict] = []
+    idx = 0
+    cum = 0.0
+    for ci, c in enumerate(rec["commands"]):
+        n = max(1, int(c["goal"]["n_objects"]))
+        actions = list(c["actions"])
+        slot_of, slot_objs = assign_slots(actions, n)
+        rows = []
+        for k in range(n):
+            mine = [a for a, s in zip(actions, slot_of, strict=True) if s == k]
+            nav = [a for a in mine if _kind(a) == "navigate"]
+            man = [a for a in mine if _kind(a) in MANIPULATION_KINDS]
+            cc = float(sum(int(a.get("collisions", 0)) for a in nav))
+            d = float(sum(float(a.get("distance", 0.0)) for a in nav))
+            t_nav = float(sum(float(a["time"]) for a in nav))
+            t_man = float(sum(float(a["time"]) for a in man))
+            sr_man = (sum(float(a.get("success_rate", 0.0)) for a in man) / len(man)) if man else 0.0
+            sr_obj = 1.0 if any(fulfilled(o, c, scene) for o in slot_objs[k]) else 0.0
+            m = m_overall(cc, t_nav + t_man, d, sr_man, sr_obj, g)
+            idx += 1
+            cum += m
+            rows.append({
+                "planner": planner, "scene": sid, "mission": mid, "command_index": ci + 1,
+                "command": str(c["command_id"]), "slot": k + 1, "object_index": idx,
+                "object": "+".join(slot_objs[k]),
+                "category": "+".join(str(scene.get("category", {}).get(o)) for o in slot_objs[k]),
+                "filled": int(bool(slot_objs[k])), "n_actions": len(mine), "cc": cc, "d": d,
+                "t_nav": t_nav, "t_man": t_man, "t_exe": t_nav + t_man, "sr_man": sr_man,
+                "sr_obj": sr_obj, "m_overall": m, "m_overall_cum": cum})
+        objs_rows.extend(rows)
+        summ = c.get("summary") or {}
+        cmd_rows.append({
+            "planner": planner, "scene": sid, "mission": mid, "command_index": ci + 1,
+            "command": str(c["command_id"]), "n_objects": n,
+            "n_filled": sum(r["filled"] for r in rows), "n_fulfilled": int(sum(r["sr_obj"] for r in rows)),
+            **_sums(rows),
+            "llm_calls": int(summ.get("llm_calls", 0)), "llm_tokens_in": int(summ.get("llm_tokens_in", 0)),
+            "llm_tokens_out": int(summ.get("llm_tokens_out", 0)),
+            "regenerations": int(summ.get("regenerations", 0)), "replans": int(summ.get("replans", 0)),
+            "dropped_candidates": int(summ.get("dropped_candidates", 0))})
+    mission = {
+        "planner": planner, "scene": sid, "mission": mid, "n_commands": len(cmd_rows),
+        "n_objects": len(objs_rows), "n_fulfilled": int(sum(r["sr_obj"] for r in objs_rows)),
+        **_sums(objs_rows),
+        "llm_calls": sum(r["llm_calls"] for r in cmd_rows),
+        "llm_tokens_in": sum(r["llm_tokens_in"] for r in cmd_rows),
+        "llm_tokens_out": sum(r["llm_tokens_out"] for r in cmd_rows),
+        "sim_time": float(rec.get("sim_time", 0.0))}
+    return objs_rows, cmd_rows, mission
+
+
+def _sums(rows: list[dict]) -> dict:
+    n = max(1, len(rows))
+    return {"cc": sum(r["cc"] for r in rows), "d": sum(r["d"] for r in rows),
+            "t_exe": sum(r["t_exe"] for r in rows), "sr_man": sum(r["sr_man"] for r in rows) / n,
+            "sr_obj": sum(r["sr_obj"] for r in rows) / n, "m_overall": sum(r["m_overall"] for r in rows)}
+
+
+def compute_tables(records: Iterable[Mapping], scenes: Mapping[str, Mapping], g: Gammas
+                   ) -> dict[str, list[dict]]:
+    """{"per_object", "per_command", "per_mission"} rows of all records, sorted by
+    (planner, scene, mission, ...)."""
+    po, pc, pm = [], [], []
+    for rec in records:
+        sid = str(rec["scene_id"])
+        if sid not in scenes:
+            raise MetricsInputError(f"run {rec.get('_path', rec['mission_id'])}: scene '{sid}' has no "
+                                    f"scene.json among {sorted(scenes)}")
+        a, b, c = mission_rows(rec, scenes[sid], g)
+        po += a
+        pc += b
+        pm.append(c)
+    po.sort(key=lambda r: (r["planner"], r["scene"], r["mission"], r["object_index"]))
+    pc.sort(key=lambda r: (r["planner"], r["scene"], r["mission"], r["command_index"]))
+    pm.sort(key=lambda r: (r["planner"], r["scene"], r["mission"]))
+    return {"per_object": po, "per_command": pc, "per_mission": pm}
+
+
+# ---- CSV -------------------------------------------------------------------------------------
+def fmt(v: Any, ndigits: int = 6) -> Any:
+    """Stable text for floats (rounded, no '-0'); other values unchanged."""
+    if isinstance(v, float):
+        r = round(v, ndigits)
+        if r == 0:
+            r = 0.0
+        return repr(r)
+    return v
+
+
+def csv_text(rows: list[Mapping], fields: Optional[Iterable[str]] = None) -> str:
+    """CSV text (csv module, '\\n' line ends, floats via ``fmt``) of a list of dicts."""
+    rows = list(rows)
+    fields = list(fields) if fields is not None else (list(rows[0]) if rows else [])
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n", extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: fmt(r.get(k, "")) for k in fields})
+    return buf.getvalue()
+
+
+def write_csv(path: str | os.PathLike, rows: list[Mapping], fields: Optional[Iterable[str]] = None) -> None:
+    """Atomically write ``rows`` as CSV (header = ``fields`` or the first row's keys)."""
+    atomic_write_text(path, csv_text(rows, fields))
+
+
+def read_csv(path: str | os.PathLike) -> list[dict]:
+    """Rows of a CSV written by ``write_csv``; numeric-looking cells become int/float."""
+    with open(path, encoding="utf-8", newline="") as f:
+        return [{k: _num(v) for k, v in r.items()} for r in csv.DictReader(f)]
+
+
+def _num(s: str) -> Any:
+    try:
+        return int(s)
+    except ValueError:
+        pass
+    try:
+        return float(s)
+    except ValueError:
+        return s
+
+
+# ---- the aggregate stage ---------------------------------------------------------------------
+SUMMARY_METRICS = ("m_overall", "cc", "d", "t_exe", "sr_man", "sr_obj")
+
+
+def _clean(v: Any, ndigits: int = 6) -> Any:
+    """Round floats, NaN/inf -> None, recursively (byte-stable JSON)."""
+    if isinstance(v, float):
+        if v != v or v in (float("inf"), float("-inf")):
+            return None
+        r = round(v, ndigits)
+        return 0.0 if r == 0 else r
+    if isinstance(v, Mapping):
+        return {str(k): _clean(x, ndigits) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_clean(x, ndigits) for x in v]
+    return v
+
+
+def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: Any,
+              out_dir: str | os.PathLike | None = None, temperature: Optional[float] = None,
+              reference: str = "inter_llm") -> dict:
+    """Compute every table of the runs under ``runs_dir`` and write them to ``out_dir``.
+
+    cfg: ExperimentConfig (uses ``sim.gamma_nav``, ``sim.gamma_man``, ``metrics.*``,
+    ``llm.temperature``); out_dir: default ``<cfg.data_dir>/metrics``; temperature: the LLM
+    temperature of these runs for Table II (default ``cfg.llm.temperature``); reference: the planner
+    whose improvement over the others is reported.
+
+    Writes (atomically): ``metrics.json`` (DVC metrics, rounded floats, sorted keys),
+    ``per_object.csv``, ``per_command.csv``, ``per_mission.csv``, ``cumulative.csv`` (x =
+    object_index, y = m_overall_cum), ``per_object_summary.csv`` (mean + CI per planner and
+    object_index for each metric), ``semantic_accuracy.csv`` and ``semantic_inferences.csv``.
+    Returns the metrics.json dict.
+    """
+    from interllm.io import write_json
+    from interllm.metrics import stats
+
+    g = Gammas.from_config(cfg)
+    mc = cfg.metrics
+    B, ci, seed = int(mc.bootstrap_samples), float(mc.ci), int(mc.seed)
+    temp = float(cfg.llm.temperature if temperature is None else temperature)
+    out = Path(out_dir) if out_dir is not None else Path(cfg.data_dir) / "metrics"
+
+    records = load_runs(runs_dir)
+    if not records:
+        raise MetricsInputError(f"no MissionRecord (<planner>/<scene>/<mission>.json) under {runs_dir}; "
+                                f"run the 'missions' stage first")
+    scenes = load_scene_categories(scenes_dir, (str(r["scene_id"]) for r in records))
+    t = compute_tables(records, scenes, g)
+    po, pc, pm = t["per_object"], t["per_command"], t["per_mission"]
+
+    cum = [{"planner": r["planner"], "object_index": r["object_index"], "m_overall_cum": r["mean"],
+            "ci_lo": r["ci_lo"], "ci_hi": r["ci_hi"], "n": r["n"]}
+           for r in stats.group_mean_ci(po, ("planner", "object_index"), "m_overall_cum", B, ci, seed)]
+    summary = []
+    for metric in SUMMARY_METRICS:
+        for r in stats.group_mean_ci(po, ("planner", "object_index"), metric, B, ci, seed):
+            summary.append({"planner": r["planner"], "object_index": r["object_index"], "metric": metric,
+                            "mean": r["mean"], "ci_lo": r["ci_lo"], "ci_hi": r["ci_hi"], "n": r["n"]})
+    inf_rows = [row for rec in records for row in stats.inference_rows(rec, temp)]
+    sem = stats.semantic_accuracy(inf_rows)
+
+    planners: dict[str, dict] = {}
+    usage = stats.llm_usage(pm)
+    counts = stats.fulfilment_counts(po)
+    for p in sorted({r["planner"] for r in pm}):
+        rows_m = [r for r in pm if r["planner"] == p]
+        rows_o = [r for r in po if r["planner"] == p]
+        d: dict[str, Any] = {"n_missions": len(rows_m), **counts[p]}
+        m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_m], B, ci,
+                                            stats.derive_seed(seed, f"mission:m_overall:{p}"))
+        d.update({"m_overall": m, "m_overall_ci_lo": lo, "m_overall_ci_hi": hi})
+        m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_o], B, ci,
+                                            stats.derive_seed(seed, f"object:m_overall:{p}"))
+        d.update({"m_overall_per_object": m, "m_overall_per_object_ci_lo": lo,
+                  "m_overall_per_object_ci_hi": hi})
+        for k in ("cc", "d", "t_exe"):  # per mission (sums over its objects)
+            d[k] = sum(r[k] for r in rows_m) / len(rows_m)
+        for k in ("sr_man", "sr_obj"):  # per object
+            d[k] = sum(r[k] for r in rows_o) / max(1, len(rows_o))
+        d.update(usage[p])
+        planners[p] = d
+    result = {
+        "planners": planners,
+        "improvement": {f"{reference}_vs_{b}": v for b, v in
+                        stats.compare_planners(pm, reference, "m_overall", B, ci, seed).items()},
+        "semantic_accuracy": {f"{r['planner']}@{r['temperature']}": {
+            k: r[k] for k in ("accuracy", "unknown_share", "accuracy_known", "n_matched", "n_inferences")}
+            for r in sem},
+        "settings": {"gamma_nav": g.nav, "gamma_man": g.man, "gamma_obj": g.obj, "bootstrap_samples": B,
+                     "ci": ci, "seed": seed, "temperature": temp, "reference": reference,
+                     "n_runs": len(records)},
+    }
+    result = _clean(result)
+    write_json(out / "metrics.json", result)
+    write_csv(out / "per_object.csv", po, PER_OBJECT_FIELDS)
+    write_csv(out / "per_command.csv", pc, PER_COMMAND_FIELDS)
+    write_csv(out / "per_mission.csv", pm, PER_MISSION_FIELDS)
+    write_csv(out / "cumulative.csv", cum, ("planner", "object_index", "m_overall_cum", "ci_lo", "ci_hi", "n"))
+    write_csv(out / "per_object_summary.csv", summary,
+              ("planner", "object_index", "metric", "mean", "ci_lo", "ci_hi", "n"))
+    write_csv(out / "semantic_accuracy.csv", sem,
+              ("temperature", "planner", "n_inferences", "n_matched", "n_unmatched", "n_correct", "n_unknown",
+               "accuracy", "unknown_share", "accuracy_known"))
+    write_csv(out / "semantic_inferences.csv", inf_rows,
+              ("planner", "scene", "mission", "temperature", "command_index", "action", "predicted",
+               "estimate", "matched", "actual_cost", "truth", "correct"))
+    return result

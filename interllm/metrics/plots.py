@@ -1,0 +1,153 @@
+"""Figures of the report (matplotlib, Agg backend, PNG).
+
+PNGs are saved with ``metadata={"Software": None}`` and a fixed DPI so identical inputs give
+identical bytes with the same matplotlib/freetype versions.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+PLANNER_LABELS = {"inter_llm": "Inter-LLM (ours)", "sayplan": "SayPlan", "moma_llm": "MoMa-LLM"}
+PLANNER_COLORS = {"inter_llm": "tab:green", "sayplan": "tab:red", "moma_llm": "tab:blue"}
+DPI = 100
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: str | os.PathLike) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
+    os.replace(tmp, path)
+    _plt().close(fig)
+    return path
+
+
+def label(planner: str) -> str:
+    return PLANNER_LABELS.get(planner, planner)
+
+
+def cumulative_figure(rows: Iterable[Mapping], path: str | os.PathLike) -> Path:
+    """The overall-metric figure: cumulative m_overall mean vs object index, one line per planner
+    with its bootstrap CI band. rows: cumulative.csv (planner, object_index, m_overall_cum, ci_lo,
+    ci_hi)."""
+    plt = _plt()
+    by: dict[str, list[Mapping]] = {}
+    for r in rows:
+        by.setdefault(str(r["planner"]), []).append(r)
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    for p in sorted(by):
+        rs = sorted(by[p], key=lambda r: int(r["object_index"]))
+        x = np.array([int(r["object_index"]) for r in rs])
+        y = np.array([float(r["m_overall_cum"]) for r in rs])
+        lo = np.array([float(r["ci_lo"]) for r in rs])
+        hi = np.array([float(r["ci_hi"]) for r in rs])
+        c = PLANNER_COLORS.get(p)
+        ax.plot(x, y, marker="o", color=c, label=label(p))
+        ax.fill_between(x, lo, hi, color=c, alpha=0.2, linewidth=0)
+    ax.set_xlabel("object index along the mission")
+    ax.set_ylabel("cumulative $m_{overall}$")
+    ax.set_title("Overall metric along the mission (mean, bootstrap CI)")
+    ax.grid(alpha=0.3)
+    if by:
+        ax.legend()
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def per_object_bars(rows: Iterable[Mapping], metric: str, path: str | os.PathLike,
+                    ylabel: Optional[str] = None, max_index: Optional[int] = None) -> Path:
+    """Grouped bars of ``metric`` per object index and planner with CI error bars.
+    rows: per_object_summary.csv (planner, object_index, metric, mean, ci_lo, ci_hi)."""
+    plt = _plt()
+    rs = [r for r in rows if r["metric"] == metric
+          and (max_index is None or int(r["object_index"]) <= max_index)]
+    planners = sorted({str(r["planner"]) for r in rs})
+    idx = sorted({int(r["object_index"]) for r in rs})
+    fig, ax = plt.subplots(figsize=(min(11.0, max(6.4, 0.35 * len(idx) * max(1, len(planners)))), 3.6))
+    w = 0.8 / max(1, len(planners))
+    for j, p in enumerate(planners):
+        d = {int(r["object_index"]): r for r in rs if r["planner"] == p}
+        xs = np.array([i for i in idx if i in d], dtype=float)
+        m = np.array([float(d[int(i)]["mean"]) for i in xs])
+        lo = np.array([float(d[int(i)]["ci_lo"]) for i in xs])
+        hi = np.array([float(d[int(i)]["ci_hi"]) for i in xs])
+        err = np.vstack([np.clip(m - lo, 0, None), np.clip(hi - m, 0, None)])
+        ax.bar(xs + (j - (len(planners) - 1) / 2) * w, m, w, yerr=err, capsize=2,
+               color=PLANNER_COLORS.get(p), label=label(p))
+    ax.set_xticks(idx)
+    ax.set_xticklabels([f"obj_{i}" for i in idx], rotation=0)
+    ax.set_ylabel(ylabel or metric)
+    ax.set_title(f"{ylabel or metric} per object (mean, bootstrap CI)")
+    ax.grid(axis="y", alpha=0.3)
+    if planners:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def synthetic_path_pairs() -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """Three pairs of 2-D paths [m]: almost identical, partly overlapping, disjoint."""
+    x = np.linspace(0.0, 6.0, 61)
+    base = np.stack([x, np.zeros_like(x)], axis=1)
+    near = np.stack([x, 0.1 * np.sin(x)], axis=1)
+    # shares the first half, then turns away
+    part = np.stack([x, np.where(x < 3.0, 0.05, (x - 3.0) * 1.2)], axis=1)
+    far = np.stack([x, np.full_like(x, 2.5)], axis=1)
+    return [("nearly identical", base, near), ("partly overlapping", base, part), ("disjoint", base, far)]
+
+
+def path_similarity_figure(path: str | os.PathLike, eps: float = 1.0) -> tuple[Optional[Path], str]:
+    """The paper's path-similarity illustration with P° from
+    ``interllm.planning.similarity.path_overlap``. Returns (png or None, note)."""
+    try:
+        from interllm.planning.similarity import path_overlap
+    except ImportError as e:  # written by another helper; the report notes its absence
+        return None, f"path-similarity figure skipped: interllm.planning.similarity unavailable ({e})"
+    plt = _plt()
+    pairs = synthetic_path_pairs()
+    fig, axes = plt.subplots(1, len(pairs), figsize=(10.5, 3.0), sharey=True)
+    vals = []
+    for ax, (name, a, b) in zip(axes, pairs, strict=True):
+        v = float(path_overlap(a, b, eps))
+        vals.append(v)
+        ax.plot(a[:, 0], a[:, 1], color="tab:blue", label="path i")
+        ax.plot(b[:, 0], b[:, 1], color="tab:orange", linestyle="--", label="path j")
+        ax.set_title(f"{name}: P° = {v:.1f} ({v / 2:.0f}%)")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [m]")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("y [m]")
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    note = (f"P° (of 200) with ε = {eps} m: " + ", ".join(f"{n} {v:.1f}" for (n, _, _), v in zip(pairs, vals, strict=True)))
+    return _save(fig, path), note
+
+
+def bar_chart(labels: Sequence[str], values: Sequence[float], path: str | os.PathLike, ylabel: str,
+              title: str) -> Path:
+    """A plain bar chart (Table II / M ablation)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(5.0, 3.2))
+    ax.bar(range(len(labels)), [float(v) for v in values], color="tab:gray")
+    ax.set_xticks(range(len(labels)))
+    ax.set_xticklabels(list(labels))
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)

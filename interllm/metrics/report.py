@@ -1,0 +1,394 @@
+"""The experiment report: ``report.md`` and a self-contained ``report.html`` (images inlined as
+base64) built from the files the aggregate stage wrote (``metrics.json``, ``per_object.csv``,
+``per_command.csv``, ``cumulative.csv``, ``per_object_summary.csv``, ``semantic_accuracy.csv``).
+
+Contents: summary per planner, paired improvement, one sentence on whether the paper's ordering
+(Inter-LLM lowest m_overall) holds, the paper's Table III layout with our means beside the
+paper's numbers, the cumulative overall-metric figure, per-object bars, the path-similarity
+illustration, scene pictures, run MCAPs with the replay command, Table II (semantic accuracy per
+temperature) and the M ablation when several result folders are given.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, Optional
+
+from interllm.io import atomic_write_text, read_json
+from interllm.metrics import plots
+from interllm.metrics.compute import read_csv
+
+# Paper Table III ("Comprehensive metric results of algorithm comparison", Yang et al.,
+# "Interleaved LLM and Motion Planning for Generalized Multi-Object Collection in Large Scene
+# Graphs", §V-C; shared/paper/inter-llm.tex, table "table result_all_metrics"): one mission of
+# three commands in ProcTHOR train_1, obj_1..obj_9. sr_man in [0, 1]; sr_obj: ✓ = 1, × = 0.
+PAPER_TABLE_III: dict[str, dict[str, list[float]]] = {
+    "cc": {"sayplan": [0, 1, 1, 1, 3, 0, 2, 0, 0],
+           "moma_llm": [0, 1, 1, 1, 3, 4, 3, 0, 2],
+           "inter_llm": [1, 0, 1, 1, 3, 0, 2, 0, 1]},
+    "d": {"sayplan": [10.0, 28.0, 28.2, 31.0, 31.5, 11.0, 31.0, 8.0, 11.2],
+          "moma_llm": [10.0, 28.0, 56.5, 31.0, 40.7, 71.5, 66.5, 8.0, 52.5],
+          "inter_llm": [20.0, 15.0, 28.2, 31.0, 31.5, 11.0, 27.7, 8.0, 43.5]},
+    "sr_man": {"sayplan": [0, 0, 0, 0.40, 0, 0, 0, 0.30, 0],
+               "moma_llm": [0, 0, 0.10, 0.60, 0.20, 0.05, 0.06, 0.30, 0.04],
+               "inter_llm": [0, 0, 0, 0.40, 0, 0, 0.40, 0.30, 0.30]},
+    "t_exe": {"sayplan": [17.5, 35.2, 34.0, 34.0, 48.7, 71.2, 76.6, 17.8, 23.5],
+              "moma_llm": [17.8, 34.9, 79.9, 27.6, 56.6, 183.0, 121.7, 18.5, 142.5],
+              "inter_llm": [31.0, 20.1, 33.8, 34.5, 49.1, 71.8, 34.1, 18.2, 38.5]},
+    "sr_obj": {"sayplan": [0, 0, 0, 1, 0, 0, 0, 1, 0],
+               "moma_llm": [0, 0, 1, 1, 1, 1, 1, 1, 1],
+               "inter_llm": [0, 0, 0, 1, 0, 0, 1, 1, 1]},
+}
+# Paper Table II (same paper, §V-B, table "table result_llm_temperature_parameter"): semantic
+# similarity accuracy [%] per LLM temperature σ.
+PAPER_TABLE_II: dict[float, float] = {0.0: 11.0, 0.2: 20.0, 0.4: 35.0, 0.6: 57.0, 0.8: 73.0, 1.0: 66.0}
+
+TABLE_III_ROWS = (("cc", "Navigation Collision Counts"), ("d", "Navigated Distance (m)"),
+                  ("sr_man", "Manipulation Success Rate"), ("t_exe", "Total Execution Time (s)"),
+                  ("sr_obj", "Object Fulfillment Rate"))
+PLANNER_ORDER = ("sayplan", "moma_llm", "inter_llm")
+
+
+# ---- a tiny document model rendered to markdown and HTML -------------------------------------
+class _Doc:
+    def __init__(self) -> None:
+        self.blocks: list[tuple[str, Any]] = []
+
+    def h(self, level: int, text: str) -> None:
+        self.blocks.append(("h", (level, text)))
+
+    def p(self, text: str) -> None:
+        self.blocks.append(("p", text))
+
+    def code(self, text: str) -> None:
+        self.blocks.append(("code", text))
+
+    def table(self, header: list[str], rows: list[list[str]], group: Optional[list[tuple[str, int]]] = None
+              ) -> None:
+        self.blocks.append(("table", (header, rows, group)))
+
+    def img(self, path: Path, alt: str) -> None:
+        self.blocks.append(("img", (path, alt)))
+
+    def links(self, items: list[tuple[str, str]]) -> None:
+        self.blocks.append(("links", items))
+
+    def markdown(self, out_dir: Path) -> str:
+        out = []
+        for kind, v in self.blocks:
+            if kind == "h":
+                out.append("#" * v[0] + " " + v[1])
+            elif kind == "p":
+                out.append(v)
+            elif kind == "code":
+                out.append("```\n" + v + "\n```")
+            elif kind == "table":
+                header, rows, group = v
+                if group:
+                    names = []
+                    for text, span in group:
+                        names += [text] + [""] * (span - 1)
+                    header = [f"{g} {h}".strip() if g else h for g, h in zip(names, header, strict=True)]
+                lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+                lines += ["| " + " | ".join(r) + " |" for r in rows]
+                out.append("\n".join(lines))
+            elif kind == "img":
+                out.append(f"![{v[1]}]({_rel(v[0], out_dir)})")
+            elif kind == "links":
+                out.append("\n".join(f"- [{t}]({u})" for t, u in v))
+        return "\n\n".join(out) + "\n"
+
+    def html(self, title: str) -> str:
+        e = html.escape
+        out = [f"<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>{e(title)}</title>",
+               "<style>body{font-family:sans-serif;max-width:1200px;margin:auto}"
+               "table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #999;padding:2px 5px;"
+               "text-align:center}img{max-width:100%}</style></head><body>"]
+        for kind, v in self.blocks:
+            if kind == "h":
+                out.append(f"<h{v[0]}>{e(v[1])}</h{v[0]}>")
+            elif kind == "p":
+                out.append(f"<p>{e(v)}</p>")
+            elif kind == "code":
+                out.append(f"<pre><code>{e(v)}</code></pre>")
+            elif kind == "table":
+                header, rows, group = v
+                t = ["<table>"]
+                if group:
+                    t.append("<tr>" + "".join(f"<th colspan='{s}'>{e(g)}</th>" for g, s in group) + "</tr>")
+                t.append("<tr>" + "".join(f"<th>{e(h)}</th>" for h in header) + "</tr>")
+                t += ["<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>" for r in rows]
+                t.append("</table>")
+                out.append("".join(t))
+            elif kind == "img":
+                b64 = base64.b64encode(Path(v[0]).read_bytes()).decode("ascii")
+                out.append(f"<figure><img alt='{e(v[1])}' src='data:image/png;base64,{b64}'>"
+                           f"<figcaption>{e(v[1])}</figcaption></figure>")
+            elif kind == "links":
+                out.append("<ul>" + "".join(f"<li><a href='{e(u)}'>{e(t)}</a></li>" for t, u in v) + "</ul>")
+        out.append("</body></html>\n")
+        return "\n".join(out)
+
+
+def _rel(path: Path | str, start: Path) -> str:
+    return Path(os.path.relpath(Path(path).resolve(), Path(start).resolve())).as_posix()
+
+
+def _f(v: Any, nd: int = 1) -> str:
+    if v is None or v == "":
+        return "–"
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    if math.isnan(x):
+        return "–"
+    return f"{x:.{nd}f}"
+
+
+def _pct(v: Any) -> str:
+    return "–" if v is None or v == "" or (isinstance(v, float) and math.isnan(v)) else f"{100 * float(v):.0f}%"
+
+
+def _ordered(planners: Iterable[str]) -> list[str]:
+    ps = set(planners)
+    return [p for p in PLANNER_ORDER if p in ps] + sorted(ps - set(PLANNER_ORDER))
+
+
+# ---- sections ----------------------------------------------------------------------------------
+def square_missions(per_command: Iterable[Mapping], n_commands: int = 3, n_objects: int = 3) -> set[tuple]:
+    """(planner, scene, mission) of missions shaped like the paper's: n_commands commands of
+    n_objects objects each."""
+    by: dict[tuple, list[int]] = {}
+    for r in per_command:
+        by.setdefault((str(r["planner"]), str(r["scene"]), str(r["mission"])), []).append(int(r["n_objects"]))
+    return {k for k, v in by.items() if len(v) == n_commands and all(n == n_objects for n in v)}
+
+
+def table_iii(per_object: Iterable[Mapping], per_command: Iterable[Mapping]) -> dict[str, dict[str, list]]:
+    """Our Table III: {metric: {planner: [mean over 3x3 missions of obj_1..obj_9]}} and the number
+    of missions per planner under key "n"."""
+    keep = square_missions(per_command)
+    acc: dict[tuple[str, str, int], list[float]] = {}
+    n: dict[str, set] = {}
+    for r in per_object:
+        key = (str(r["planner"]), str(r["scene"]), str(r["mission"]))
+        if key not in keep:
+            continue
+        n.setdefault(key[0], set()).add(key)
+        for m, _ in TABLE_III_ROWS:
+            acc.setdefault((m, key[0], int(r["object_index"])), []).append(float(r[m]))
+    out: dict[str, dict[str, list]] = {m: {} for m, _ in TABLE_III_ROWS}
+    for m, _ in TABLE_III_ROWS:
+        for p in n:
+            out[m][p] = [(sum(acc[(m, p, i)]) / len(acc[(m, p, i)])) if (m, p, i) in acc else float("nan")
+                         for i in range(1, 10)]
+    out["n"] = {p: len(v) for p, v in n.items()}  # type: ignore[assignment]
+    return out
+
+
+def _cell(metric: str, v: float, paper: Optional[float]) -> str:
+    """'ours (paper)': rates in %, collisions with 2 decimals (a mean), others with 1."""
+    if metric in ("sr_man", "sr_obj"):
+        ours = _pct(v)
+    else:
+        ours = _f(v, 2 if metric == "cc" else 1)
+    if paper is None:
+        return ours
+    if metric == "sr_obj":
+        pap = "✓" if paper >= 0.5 else "×"
+    elif metric == "sr_man":
+        pap = _pct(paper)
+    else:
+        pap = _f(paper, 0 if metric == "cc" else 1)
+    return f"{ours} ({pap})"
+
+
+def ordering_sentence(metrics: Mapping, reference: str = "inter_llm") -> str:
+    """One sentence: does the paper's ordering (reference best = lowest mean m_overall) hold?"""
+    pl = metrics.get("planners", {})
+    if reference not in pl or len(pl) < 2:
+        return (f"The paper's ordering ({plots.label(reference)} best on m_overall) cannot be judged: "
+                f"runs exist only for {sorted(pl)}.")
+    ranked = sorted(pl, key=lambda p: (float("inf") if pl[p].get("m_overall") is None else pl[p]["m_overall"], p))
+    figs = "; ".join(f"{plots.label(p)} {_f(pl[p].get('m_overall'))} [{_f(pl[p].get('m_overall_ci_lo'))}, "
+                     f"{_f(pl[p].get('m_overall_ci_hi'))}]" for p in ranked)
+    holds = ranked[0] == reference
+    imp = metrics.get("improvement", {})
+    imps = "; ".join(f"{plots.label(reference)} vs {plots.label(k.split('_vs_', 1)[1])}: "
+                     f"{_f(v.get('pct'))}% [{_f(v.get('ci_lo'))}, {_f(v.get('ci_hi'))}]"
+                     for k, v in sorted(imp.items()))
+    verdict = "holds" if holds else "does not hold"
+    return (f"The paper's ordering ({plots.label(reference)} lowest mean m_overall per mission) {verdict} "
+            f"on our runs: {figs} (mean per mission, {len(pl)} planners; bootstrap CI)."
+            + (f" Paired improvement: {imps}." if imps else ""))
+
+
+def _gather(pairs: Sequence[tuple[str, str | os.PathLike]]) -> list[tuple[str, Path, dict]]:
+    out = []
+    for lab, d in pairs:
+        p = Path(d) / "metrics.json"
+        if p.is_file():
+            out.append((str(lab), Path(d), read_json(p)))
+    return out
+
+
+def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, runs_dir: str | os.PathLike,
+                 out_dir: str | os.PathLike, cfg: Any = None,
+                 temperature_results: Sequence[tuple[str, str | os.PathLike]] = (),
+                 m_results: Sequence[tuple[str, str | os.PathLike]] = (),
+                 reference: str = "inter_llm") -> dict[str, Path]:
+    """Write ``out_dir/report.md``, ``out_dir/report.html`` and ``out_dir/figures/*.png``.
+
+    metrics_dir: output of ``aggregate``; scenes_dir: ``data/scenes`` (topdown.png pictures);
+    runs_dir: ``data/runs`` (MCAP links); cfg: ExperimentConfig or None (ε of the path-similarity
+    figure = ``cfg.planner.epsilon_d``); temperature_results / m_results: (label, metrics_dir)
+    pairs of other runs (labels like "0.2" / "M=3"); folders without metrics.json are skipped.
+    Returns {"markdown", "html", "figures"} paths.
+    """
+    metrics_dir, out_dir = Path(metrics_dir), Path(out_dir)
+    mpath = metrics_dir / "metrics.json"
+    if not mpath.is_file():
+        raise FileNotFoundError(f"{mpath} is missing; run the 'aggregate' stage (interllm.metrics.aggregate) "
+                                f"first or pass the folder holding metrics.json")
+    metrics = read_json(mpath)
+    per_object = read_csv(metrics_dir / "per_object.csv")
+    per_command = read_csv(metrics_dir / "per_command.csv")
+    cumulative = read_csv(metrics_dir / "cumulative.csv")
+    summary = read_csv(metrics_dir / "per_object_summary.csv")
+    fig_dir = out_dir / "figures"
+    doc = _Doc()
+    s = metrics.get("settings", {})
+    doc.h(1, "Inter-LLM experiment report")
+    doc.p(f"{s.get('n_runs', '?')} mission runs; γ_nav = {s.get('gamma_nav')}, γ_man = {s.get('gamma_man')}, "
+          f"γ_obj = {s.get('gamma_obj')}; LLM temperature {s.get('temperature')}; "
+          f"{int(100 * float(s.get('ci', 0.95)))}% percentile bootstrap CIs with B = "
+          f"{s.get('bootstrap_samples')} (seed {s.get('seed')}). All times are simulated seconds.")
+
+    # summary
+    pl = metrics.get("planners", {})
+    doc.h(2, "Summary per planner")
+    doc.p(ordering_sentence(metrics, reference))
+    rows = []
+    for p in _ordered(pl):
+        d = pl[p]
+        rows.append([plots.label(p), str(d.get("n_missions")),
+                     f"{_f(d.get('m_overall'))} [{_f(d.get('m_overall_ci_lo'))}, {_f(d.get('m_overall_ci_hi'))}]",
+                     _f(d.get("m_overall_per_object")), f"{d.get('n_fulfilled')}/{d.get('n_objects')}",
+                     _pct(d.get("sr_obj")), _f(d.get("cc"), 2), _f(d.get("d")), _f(d.get("t_exe")),
+                     _pct(d.get("sr_man")), _f(d.get("llm_calls_per_mission")),
+                     _f(d.get("llm_tokens_in_per_mission"), 0), _f(d.get("llm_tokens_out_per_mission"), 0)])
+    doc.table(["planner", "missions", "m_overall / mission [CI]", "m_overall / object", "fulfilled", "sr_obj",
+               "cc / mission", "d [m] / mission", "t_exe [s] / mission", "sr_man", "LLM calls / mission",
+               "tokens in / mission", "tokens out / mission"], rows)
+    imp = metrics.get("improvement", {})
+    if imp:
+        doc.table(["comparison", "pairs", "improvement % of baseline m_overall [CI]"],
+                  [[k, str(v.get("n_pairs")), f"{_f(v.get('pct'))} [{_f(v.get('ci_lo'))}, {_f(v.get('ci_hi'))}]"]
+                   for k, v in sorted(imp.items())])
+
+    # Table III
+    doc.h(2, "Table III: per-object metrics (ours, paper in parentheses)")
+    t3 = table_iii(per_object, per_command)
+    ns = t3.pop("n")
+    if ns:
+        doc.p("Mean over our missions shaped like the paper's (3 commands x 3 objects): "
+              + ", ".join(f"{plots.label(p)} {n}" for p, n in sorted(ns.items()))
+              + " missions. The paper's numbers are one mission in ProcTHOR train_1. sr_obj: ours = share "
+                "of missions fulfilling the object; paper ✓/×.")
+        rows = []
+        for m, name in TABLE_III_ROWS:
+            for p in _ordered(set(t3[m]) | set(PAPER_TABLE_III[m])):
+                ours = t3[m].get(p, [float("nan")] * 9)
+                paper = PAPER_TABLE_III[m].get(p)
+                rows.append([name, plots.label(p)] + [_cell(m, ours[i], None if paper is None else paper[i])
+                                                      for i in range(9)])
+        doc.table(["metric", "algorithm"] + [f"obj_{i}" for i in range(1, 10)], rows,
+                  group=[("", 2), ("command_1", 3), ("command_2", 3), ("command_3", 3)])
+    else:
+        doc.p("No run is shaped like the paper's mission (3 commands x 3 objects): Table III is left out.")
+
+    # figures
+    figures: list[Path] = []
+    doc.h(2, "Overall metric along the mission")
+    f = plots.cumulative_figure(cumulative, fig_dir / "cumulative_m_overall.png")
+    figures.append(f)
+    doc.img(f, "Cumulative m_overall per object index (mean over missions, bootstrap CI band)")
+    doc.h(2, "Per-object metrics")
+    max_idx = 9 if any(int(r["object_index"]) > 9 for r in summary) else None
+    for metric, ylab in (("m_overall", "m_overall"), ("t_exe", "t_exe [s]"), ("cc", "collisions"),
+                         ("sr_obj", "sr_obj")):
+        f = plots.per_object_bars(summary, metric, fig_dir / f"per_object_{metric}.png", ylab, max_idx)
+        figures.append(f)
+        doc.img(f, f"{ylab} per object (mean, bootstrap CI)")
+    doc.h(2, "Path similarity P°")
+    eps = float(cfg.planner.epsilon_d) if cfg is not None else 1.0
+    f, note = plots.path_similarity_figure(fig_dir / "path_similarity.png", eps)
+    if f is not None:
+        figures.append(f)
+        doc.img(f, "Three synthetic path pairs and their P°")
+    doc.p(note)
+
+    # scenes and runs
+    scenes = sorted({str(r["scene"]) for r in per_object})
+    pics = [(sid, Path(scenes_dir) / sid / "topdown.png") for sid in scenes]
+    pics = [(sid, p) for sid, p in pics if p.is_file()]
+    doc.h(2, "Scenes")
+    if pics:
+        for sid, p in pics:
+            doc.img(p, f"scene {sid} (top-down)")
+    else:
+        doc.p(f"No topdown.png under {scenes_dir} for scenes {scenes}.")
+    doc.h(2, "Run logs (MCAP)")
+    mcaps = sorted(Path(runs_dir).glob("**/*.mcap")) if Path(runs_dir).is_dir() else []
+    if mcaps:
+        doc.p("Replay any run in rerun with `interllm replay <file>`, or open it in Foxglove Studio:")
+        doc.links([(Path(m).relative_to(runs_dir).as_posix(), _rel(m, out_dir)) for m in mcaps])
+        doc.code(f"interllm replay {Path(mcaps[0]).as_posix()}")
+    else:
+        doc.p(f"No .mcap run logs found under {runs_dir}.")
+
+    # Table II
+    doc.h(2, "Table II: semantic-similarity accuracy per temperature")
+    sem_rows = []
+    others = [(lab, d) for lab, d in temperature_results if Path(d).resolve() != metrics_dir.resolve()]
+    for lab, d, _ in _gather([("this run", metrics_dir)] + others):
+        p = d / "semantic_accuracy.csv"
+        for r in (read_csv(p) if p.is_file() else []):
+            t = r["temperature"]
+            paper = PAPER_TABLE_II.get(round(float(t), 1)) if t != "" else None
+            sem_rows.append((float(t) if t != "" else -1.0, lab, [
+                _f(t, 1), lab, plots.label(str(r["planner"])), str(r["n_matched"]), _pct(r["accuracy"]),
+                _pct(r["unknown_share"]), "–" if paper is None else f"{paper:.0f}%"]))
+    if sem_rows:
+        rows = [row for _, _, row in sorted(sem_rows, key=lambda x: (x[0], x[1]))]
+        doc.p("Prediction = class the LLM inferred for a manipulation action; truth = f_en of the cost measured "
+              "when that action first ran later in the mission; 'unknown' counts as wrong.")
+        doc.table(["temperature σ", "results", "planner", "inferences judged", "accuracy", "unknown share",
+                   "paper accuracy"], rows)
+    else:
+        doc.p("No cost inferences were recorded (only Inter-LLM infers manipulation costs).")
+
+    # M ablation
+    got = _gather(m_results)
+    if got:
+        doc.h(2, "Ablation over M (plan candidates)")
+        rows = []
+        for lab, _, mj in got:
+            d = mj.get("planners", {}).get(reference, {})
+            rows.append([lab, f"{_f(d.get('m_overall'))} [{_f(d.get('m_overall_ci_lo'))}, "
+                              f"{_f(d.get('m_overall_ci_hi'))}]", _f(d.get("llm_calls_per_mission")),
+                         _f(d.get("llm_tokens_in_per_mission"), 0), _f(d.get("llm_tokens_out_per_mission"), 0)])
+        doc.table(["M", f"{plots.label(reference)} m_overall / mission [CI]", "LLM calls / mission",
+                   "tokens in / mission", "tokens out / mission"], rows)
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    md, ht = out_dir / "report.md", out_dir / "report.html"
+    atomic_write_text(md, doc.markdown(out_dir))
+    atomic_write_text(ht, doc.html("Inter-LLM experiment report"))
+    return {"markdown": md, "html": ht, "figures": figures}  # type: ignore[dict-item]

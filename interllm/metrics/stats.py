@@ -1,0 +1,207 @@
+"""Statistics over mission metrics: bootstrap CIs, paired planner comparison, LLM usage and the
+semantic-similarity accuracy of manipulation-cost inferences (paper Table II).
+
+Every random draw comes from a ``numpy.random.Generator`` seeded from ``MetricsConfig.seed`` and a
+CRC32 of the group's label (``derive_seed``), so a group's CI does not depend on which other groups
+are present, and identical inputs give identical outputs.
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Optional
+
+import numpy as np
+
+from interllm.planning.domain import Action
+
+CLASSES = ("easy", "medium", "hard")
+
+
+def derive_seed(seed: int, label: str) -> int:
+    """A 32-bit seed from the base seed and a label (CRC32; never Python's salted ``hash``)."""
+    return zlib.crc32(f"{int(seed)}:{label}".encode()) & 0xFFFFFFFF
+
+
+def bootstrap_mean_ci(x: Sequence[float], n_boot: int = 2000, ci: float = 0.95, seed: int = 0
+                      ) -> tuple[float, float, float]:
+    """(mean, lo, hi): percentile bootstrap CI of the mean of ``x``.
+
+    n_boot: resamples B; ci: coverage in (0, 1); seed: Generator seed. One sample gives lo = hi =
+    mean; an empty sample gives NaNs.
+    """
+    a = np.asarray(list(x), dtype=float)
+    if a.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    m = float(a.mean())
+    if a.size == 1:
+        return m, m, m
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, a.size, size=(int(n_boot), a.size))
+    means = a[idx].mean(axis=1)
+    alpha = (1.0 - ci) / 2.0
+    lo, hi = np.quantile(means, [alpha, 1.0 - alpha])
+    return m, float(lo), float(hi)
+
+
+def improvement_pct(ref: Sequence[float], base: Sequence[float]) -> float:
+    """100 · (mean(base) − mean(ref)) / mean(base): how much lower ``ref``'s m_overall is, in % of
+    the baseline's (positive = ``ref`` better). NaN if the baseline mean is 0."""
+    mb = float(np.mean(base))
+    return float("nan") if mb == 0 else 100.0 * (mb - float(np.mean(ref))) / mb
+
+
+def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int = 2000,
+                       ci: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
+    """(pct, lo, hi): ``improvement_pct`` of paired samples (same scene and mission at the same
+    position) with a paired percentile bootstrap CI (pairs resampled jointly)."""
+    r = np.asarray(list(ref), dtype=float)
+    b = np.asarray(list(base), dtype=float)
+    if r.shape != b.shape:
+        raise ValueError(f"paired samples differ in length: {r.size} vs {b.size}")
+    if r.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    pct = improvement_pct(r, b)
+    if r.size == 1:
+        return pct, pct, pct
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, r.size, size=(int(n_boot), r.size))
+    mb = b[idx].mean(axis=1)
+    mr = r[idx].mean(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pcts = 100.0 * (mb - mr) / mb
+    pcts = pcts[np.isfinite(pcts)]
+    if pcts.size == 0:
+        return pct, float("nan"), float("nan")
+    alpha = (1.0 - ci) / 2.0
+    lo, hi = np.quantile(pcts, [alpha, 1.0 - alpha])
+    return pct, float(lo), float(hi)
+
+
+def compare_planners(per_mission: Iterable[Mapping], reference: str = "inter_llm", metric: str = "m_overall",
+                     n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> dict[str, dict]:
+    """Paired improvement of ``reference`` over every other planner on the (scene, mission) pairs
+    both ran. Returns {baseline: {"pct", "ci_lo", "ci_hi", "n_pairs", "ref_mean", "base_mean"}}."""
+    by: dict[str, dict[tuple[str, str], float]] = {}
+    for r in per_mission:
+        by.setdefault(str(r["planner"]), {})[(str(r["scene"]), str(r["mission"]))] = float(r[metric])
+    out: dict[str, dict] = {}
+    if reference not in by:
+        return out
+    for base in sorted(by):
+        if base == reference:
+            continue
+        keys = sorted(set(by[reference]) & set(by[base]))
+        x = [by[reference][k] for k in keys]
+        y = [by[base][k] for k in keys]
+        pct, lo, hi = paired_improvement(x, y, n_boot, ci, derive_seed(seed, f"paired:{reference}:{base}"))
+        out[base] = {"pct": pct, "ci_lo": lo, "ci_hi": hi, "n_pairs": len(keys),
+                     "ref_mean": float(np.mean(x)) if x else float("nan"),
+                     "base_mean": float(np.mean(y)) if y else float("nan")}
+    return out
+
+
+def group_mean_ci(rows: Iterable[Mapping], keys: Sequence[str], value: str, n_boot: int = 2000,
+                  ci: float = 0.95, seed: int = 0) -> list[dict]:
+    """Mean and bootstrap CI of ``value`` per group of ``keys``: rows {keys..., mean, ci_lo, ci_hi, n},
+    sorted by the group key."""
+    groups: dict[tuple, list[float]] = {}
+    for r in rows:
+        groups.setdefault(tuple(r[k] for k in keys), []).append(float(r[value]))
+    out = []
+    for g in sorted(groups):
+        m, lo, hi = bootstrap_mean_ci(groups[g], n_boot, ci, derive_seed(seed, f"{value}:{g!r}"))
+        out.append({**dict(zip(keys, g, strict=True)), "mean": m, "ci_lo": lo, "ci_hi": hi, "n": len(groups[g])})
+    return out
+
+
+def llm_usage(per_mission: Iterable[Mapping]) -> dict[str, dict]:
+    """Per planner: missions, total and per-mission LLM calls and tokens."""
+    out: dict[str, dict] = {}
+    for r in per_mission:
+        d = out.setdefault(str(r["planner"]), {"n_missions": 0, "llm_calls": 0, "llm_tokens_in": 0,
+                                               "llm_tokens_out": 0})
+        d["n_missions"] += 1
+        for k in ("llm_calls", "llm_tokens_in", "llm_tokens_out"):
+            d[k] += int(r[k])
+    for d in out.values():
+        n = max(1, d["n_missions"])
+        for k in ("llm_calls", "llm_tokens_in", "llm_tokens_out"):
+            d[f"{k}_per_mission"] = d[k] / n
+    return out
+
+
+def fulfilment_counts(per_object: Iterable[Mapping]) -> dict[str, dict]:
+    """Per planner: objects asked for, slots filled, objects fulfilled (sr_obj = 1)."""
+    out: dict[str, dict] = {}
+    for r in per_object:
+        d = out.setdefault(str(r["planner"]), {"n_objects": 0, "n_filled": 0, "n_fulfilled": 0})
+        d["n_objects"] += 1
+        d["n_filled"] += int(r["filled"])
+        d["n_fulfilled"] += int(float(r["sr_obj"]) >= 0.5)
+    return out
+
+
+# ---- semantic similarity accuracy (Table II) ---------------------------------------------------
+def cost_class(cost: float) -> str:
+    """f_en of a manipulation cost: hard > 15, 5 ≤ medium ≤ 15, easy < 5 (DESIGN.md)."""
+    if cost > 15.0:
+        return "hard"
+    if cost >= 5.0:
+        return "medium"
+    return "easy"
+
+
+def _norm(s: str) -> str:
+    return "".join(str(s).split())
+
+
+def inference_rows(rec: Mapping, temperature: Optional[float]) -> list[dict]:
+    """One row per cost inference of a MissionRecord, joined with the first execution of the same
+    action string at or after the inferring command (its actions, then later commands').
+
+    Rows: planner, scene, mission, temperature, command_index, action, predicted, estimate,
+    matched (0/1), actual_cost, truth (f_en of the actual cost), correct (0/1; an 'unknown'
+    prediction is never correct)."""
+    cmds = list(rec["commands"])
+    executed: list[list[tuple[str, float]]] = [
+        [(_norm(str(Action.from_dict(a["action"]))), float(a.get("cost", 0.0))) for a in c["actions"]]
+        for c in cmds]
+    out = []
+    for ci, c in enumerate(cmds):
+        for inf in (c.get("summary") or {}).get("cost_inferences", []) or []:
+            act = _norm(inf.get("action", ""))
+            pred = str(inf.get("predicted", "unknown")).lower()
+            hit = next((cost for later in executed[ci:] for s, cost in later if s == act), None)
+            truth = cost_class(hit) if hit is not None else ""
+            out.append({"planner": str(rec["planner"]), "scene": str(rec["scene_id"]),
+                        "mission": str(rec["mission_id"]),
+                        "temperature": "" if temperature is None else float(temperature),
+                        "command_index": ci + 1, "action": str(inf.get("action", "")), "predicted": pred,
+                        "estimate": float(inf.get("estimate", 0.0)), "matched": int(hit is not None),
+                        "actual_cost": "" if hit is None else hit, "truth": truth,
+                        "correct": int(hit is not None and pred == truth)})
+    return out
+
+
+def semantic_accuracy(rows: Iterable[Mapping]) -> list[dict]:
+    """Table II per (temperature, planner): accuracy = correct / matched inferences (unknown counts
+    as wrong), unknown_share = unknown / matched, accuracy_known = correct / matched non-unknown.
+    Inferences whose action never ran later in the mission are counted as ``n_unmatched``."""
+    groups: dict[tuple, list[Mapping]] = {}
+    for r in rows:
+        groups.setdefault((str(r["temperature"]), str(r["planner"])), []).append(r)
+    out = []
+    for (t, p) in sorted(groups):
+        g = groups[(t, p)]
+        m = [r for r in g if int(r["matched"])]
+        known = [r for r in m if r["predicted"] != "unknown"]
+        nc = sum(int(r["correct"]) for r in m)
+        out.append({"temperature": t, "planner": p, "n_inferences": len(g), "n_matched": len(m),
+                    "n_unmatched": len(g) - len(m), "n_correct": nc,
+                    "n_unknown": len(m) - len(known),
+                    "accuracy": nc / len(m) if m else float("nan"),
+                    "unknown_share": (len(m) - len(known)) / len(m) if m else float("nan"),
+                    "accuracy_known": nc / len(known) if known else float("nan")})
+    return out

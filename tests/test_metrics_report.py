@@ -1,0 +1,130 @@
+"""A tiny synthetic experiment: aggregate twice (byte-identical metrics.json) and build the report."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from interllm.config import ExperimentConfig, from_dict
+from interllm.io import write_json
+from interllm.metrics.compute import aggregate, read_csv
+from interllm.sim.results import man_cost, nav_cost
+
+PLANNERS = {"inter_llm": 0.6, "sayplan": 1.4, "moma_llm": 1.0}  # cost scale: inter_llm cheapest
+CATS = ["apple", "bread", "milk", "laptop", "notebook", "cellphone", "book", "newspaper", "mug"]
+
+
+def _scene(sid):
+    objs = [{"id": f"{c}_{k}", "category": c, "furniture": f"shelf_{k}"} for c in CATS for k in (1, 2)]
+    return {"id": sid, "objects": objs}
+
+
+def _record(planner, sid, mid, scale, rng):
+    cmds = []
+    for ci in range(3):
+        cats = CATS[3 * ci:3 * ci + 3]
+        target = f"target_{ci}"
+        actions, final = [], {}
+        for k, cat in enumerate(cats):
+            obj = f"{cat}_{1 + int(rng.integers(0, 2))}"
+            cc, d, t = int(rng.integers(0, 3) * scale), float(rng.uniform(2, 20) * scale), float(rng.uniform(5, 40))
+            actions.append({"action": {"action": "navigate", "furniture": f"shelf_{k}", "room": "r"},
+                            "kind": "navigate", "success": True, "cost": nav_cost(cc, t, d, 10), "time": t,
+                            "collisions": cc, "distance": d, "success_rate": 1.0})
+            sr = float(np.clip(rng.uniform(0.3, 1.0) / scale, 0, 1))
+            tm = float(rng.uniform(2, 10))
+            actions.append({"action": {"action": "pickup", "object": obj, "furniture": "shelf_1"},
+                            "kind": "pickup", "success": sr > 0.5, "cost": man_cost(sr, tm, 100), "time": tm,
+                            "collisions": 0, "distance": 0.0, "success_rate": sr})
+            if sr > 0.5:
+                actions.append({"action": {"action": "place", "object": obj, "furniture": target},
+                                "kind": "place", "success": True, "cost": man_cost(1.0, 2.0, 100), "time": 2.0,
+                                "collisions": 0, "distance": 0.0, "success_rate": 1.0})
+                final[obj] = target
+        infs = [{"action": str_a(a), "predicted": ["easy", "medium", "hard", "unknown"][int(rng.integers(0, 4))],
+                 "estimate": 5.0} for a in actions if a["kind"] == "pickup"] if planner == "inter_llm" else []
+        cmds.append({"command_id": f"c{ci}", "text": "t",
+                     "goal": {"categories": cats, "target_furniture": [target], "n_objects": 3},
+                     "summary": {"llm_calls": 3, "llm_tokens_in": 900, "llm_tokens_out": 120,
+                                 "cost_inferences": infs},
+                     "actions": actions, "final_locations": final})
+    return {"planner": planner, "scene_id": sid, "mission_id": mid, "commands": cmds, "sim_time": 0.0}
+
+
+def str_a(a):
+    return f"{a['action']['action']}({a['action']['object']}, {a['action']['furniture']})"
+
+
+@pytest.fixture(scope="module")
+def experiment(tmp_path_factory):
+    root = tmp_path_factory.mktemp("exp")
+    import matplotlib
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+    for sid in ("s0", "s1"):
+        write_json(root / "scenes" / sid / "scene.json", _scene(sid))
+    plt.imsave(root / "scenes" / "s0" / "topdown.png", np.arange(64.0).reshape(8, 8))
+    for planner, scale in PLANNERS.items():
+        for sid in ("s0", "s1"):
+            for m in range(3):
+                rng = np.random.default_rng([sorted(PLANNERS).index(planner), int(sid[1]), m])
+                write_json(root / "runs" / planner / sid / f"m{m:03d}.json",
+                           _record(planner, sid, f"m{m:03d}", scale, rng))
+    (root / "runs" / "inter_llm" / "s0" / "m000.mcap").write_bytes(b"\x89MCAP0\r\n")
+    cfg = from_dict({"metrics": {"bootstrap_samples": 300}})
+    return root, cfg
+
+
+def test_metrics_json_byte_identical(experiment):
+    root, cfg = experiment
+    aggregate(root / "runs", root / "scenes", cfg, root / "m1")
+    aggregate(root / "runs", root / "scenes", cfg, root / "m2")
+    for name in ("metrics.json", "per_object.csv", "cumulative.csv", "per_object_summary.csv",
+                 "semantic_accuracy.csv"):
+        assert (root / "m1" / name).read_bytes() == (root / "m2" / name).read_bytes(), name
+    # a different bootstrap seed changes the CIs but not the means
+    cfg2 = from_dict({"metrics": {"bootstrap_samples": 300, "seed": 5}})
+    b = aggregate(root / "runs", root / "scenes", cfg2, root / "m3")
+    a = aggregate(root / "runs", root / "scenes", cfg, root / "m1")
+    assert a["planners"]["sayplan"]["m_overall"] == b["planners"]["sayplan"]["m_overall"]
+    assert a["planners"]["sayplan"]["m_overall_ci_lo"] != b["planners"]["sayplan"]["m_overall_ci_lo"]
+    assert len(read_csv(root / "m1" / "per_object.csv")) == 3 * 2 * 3 * 9
+
+
+def test_report_builds(experiment):
+    from interllm.metrics.report import build_report
+
+    root, cfg = experiment
+    mdir = root / "m1"
+    aggregate(root / "runs", root / "scenes", cfg, mdir)
+    aggregate(root / "runs", root / "scenes", cfg, root / "t02", temperature=0.2)
+    out = build_report(mdir, root / "scenes", root / "runs", root / "report", cfg,
+                       temperature_results=[("σ=0.2", root / "t02"), ("σ=1.0", root / "missing")],
+                       m_results=[("M=3", mdir), ("M=5", root / "missing")])
+    md = out["markdown"].read_text(encoding="utf-8")
+    ht = out["html"].read_text(encoding="utf-8")
+    for text in ("Table III", "command_1", "obj_9", "Navigation Collision Counts", "Object Fulfillment Rate",
+                 "183.0", "interllm replay", "m000.mcap", "Table II", "73%", "M=3"):
+        assert text in md, text
+    assert "The paper's ordering" in md and " holds on our runs" in md  # inter_llm is built cheapest
+    assert "<th colspan='3'>command_1</th>" in ht
+    n_img = ht.count("src='data:image/png;base64,")
+    assert n_img >= 6 and n_img == md.count("![")
+    assert "<img src='figures" not in ht and "src='figures" not in ht
+    assert (root / "report" / "figures" / "cumulative_m_overall.png").read_bytes()[:4] == b"\x89PNG"
+    # σ=0.2 and this run (0.8) both appear in Table II
+    assert "| 0.2 |" in md and "| 0.8 |" in md
+    # rebuilding gives identical markdown and figures
+    first = {p.name: p.read_bytes() for p in (root / "report" / "figures").glob("*.png")}
+    build_report(mdir, root / "scenes", root / "runs", root / "report2", cfg,
+                 temperature_results=[("σ=0.2", root / "t02")], m_results=[("M=3", mdir)])
+    second = {p.name: p.read_bytes() for p in (root / "report2" / "figures").glob("*.png")}
+    assert first == second
+    assert (root / "report2" / "report.md").read_text(encoding="utf-8").replace("report2", "report") == md
+
+
+def test_report_missing_metrics_names_stage(tmp_path):
+    from interllm.metrics.report import build_report
+
+    with pytest.raises(FileNotFoundError, match="aggregate"):
+        build_report(tmp_path, tmp_path, tmp_path, tmp_path / "out", ExperimentConfig())

@@ -1,0 +1,101 @@
+"""Bootstrap CIs, paired comparison, f_en thresholds, LLM usage."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from interllm.metrics.stats import (
+    bootstrap_mean_ci,
+    compare_planners,
+    cost_class,
+    derive_seed,
+    fulfilment_counts,
+    group_mean_ci,
+    improvement_pct,
+    llm_usage,
+    paired_improvement,
+)
+
+
+def test_bootstrap_deterministic_by_seed():
+    x = np.random.default_rng(1).normal(10, 3, 25)
+    a = bootstrap_mean_ci(x, 500, 0.95, 7)
+    assert a == bootstrap_mean_ci(list(x), 500, 0.95, 7)
+    assert a != bootstrap_mean_ci(x, 500, 0.95, 8)
+    m, lo, hi = a
+    assert m == pytest.approx(float(np.mean(x))) and lo < m < hi
+
+
+def test_bootstrap_edge_cases():
+    assert bootstrap_mean_ci([4.0], 100) == (4.0, 4.0, 4.0)
+    assert all(np.isnan(v) for v in bootstrap_mean_ci([], 100))
+    assert bootstrap_mean_ci([2.0] * 10, 100) == (2.0, 2.0, 2.0)
+
+
+def test_bootstrap_coverage_near_nominal():
+    rng = np.random.default_rng(123)
+    hits = 0
+    reps = 200
+    for i in range(reps):
+        x = rng.normal(5.0, 2.0, 30)
+        _, lo, hi = bootstrap_mean_ci(x, 1000, 0.95, derive_seed(0, f"rep{i}"))
+        hits += lo <= 5.0 <= hi
+    assert 0.90 <= hits / reps <= 0.98
+
+
+def test_ci_width_shrinks_with_level():
+    x = np.random.default_rng(2).exponential(3.0, 40)
+    _, lo90, hi90 = bootstrap_mean_ci(x, 2000, 0.90, 0)
+    _, lo99, hi99 = bootstrap_mean_ci(x, 2000, 0.99, 0)
+    assert lo99 < lo90 and hi90 < hi99
+
+
+def test_paired_improvement_by_hand():
+    assert improvement_pct([80, 90], [100, 100]) == pytest.approx(15.0)
+    # the reference is exactly half of every baseline: every resample gives 50 %
+    base = [100.0, 220.0, 340.0, 90.0]
+    pct, lo, hi = paired_improvement([b / 2 for b in base], base, 500, 0.95, 3)
+    assert (pct, lo, hi) == pytest.approx((50.0, 50.0, 50.0))
+    with pytest.raises(ValueError, match="length"):
+        paired_improvement([1.0], [1.0, 2.0])
+
+
+def test_compare_planners_uses_common_pairs_only():
+    rows = [{"planner": "inter_llm", "scene": "s0", "mission": "m0", "m_overall": 80.0},
+            {"planner": "inter_llm", "scene": "s0", "mission": "m1", "m_overall": 60.0},
+            {"planner": "sayplan", "scene": "s0", "mission": "m0", "m_overall": 100.0},
+            {"planner": "sayplan", "scene": "s1", "mission": "m0", "m_overall": 1000.0},
+            {"planner": "moma_llm", "scene": "s0", "mission": "m1", "m_overall": 50.0}]
+    out = compare_planners(rows, "inter_llm", n_boot=200)
+    assert out["sayplan"]["n_pairs"] == 1 and out["sayplan"]["pct"] == pytest.approx(20.0)
+    assert out["moma_llm"]["pct"] == pytest.approx(-20.0)  # worse than the baseline
+    assert compare_planners(rows, "nobody") == {}
+
+
+@pytest.mark.parametrize("cost, cls", [(0.0, "easy"), (4.999, "easy"), (5.0, "medium"), (10.0, "medium"),
+                                       (15.0, "medium"), (15.001, "hard"), (120.0, "hard")])
+def test_cost_class_thresholds(cost, cls):
+    assert cost_class(cost) == cls
+    try:  # the planning helper's f_en must agree where it exists
+        from interllm.planning.costs import encode_cost
+    except ImportError:
+        return
+    assert encode_cost(cost) == cls
+
+
+def test_group_mean_ci_and_counts():
+    rows = [{"planner": p, "object_index": i, "v": float(i * k), "filled": 1, "sr_obj": float(i % 2),
+             "llm_calls": 2, "llm_tokens_in": 10, "llm_tokens_out": 3}
+            for p in ("a", "b") for i in (1, 2) for k in (1, 3)]
+    g = group_mean_ci(rows, ("planner", "object_index"), "v", 200, 0.95, 0)
+    assert [(r["planner"], r["object_index"], r["mean"], r["n"]) for r in g] == [
+        ("a", 1, 2.0, 2), ("a", 2, 4.0, 2), ("b", 1, 2.0, 2), ("b", 2, 4.0, 2)]
+    assert fulfilment_counts(rows)["a"] == {"n_objects": 4, "n_filled": 4, "n_fulfilled": 2}
+    u = llm_usage(rows)["b"]
+    assert u["llm_calls"] == 8 and u["llm_calls_per_mission"] == 2.0 and u["llm_tokens_in"] == 40
+
+
+def test_derive_seed_stable():
+    assert derive_seed(0, "x") == derive_seed(0, "x") != derive_seed(1, "x")
+    assert derive_seed(0, "inter_llm") == 3799621879  # CRC32 of b"0:inter_llm": same in every process
