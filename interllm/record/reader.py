@@ -1,0 +1,281 @@
+"""Read a run's MCAP back (``read_run``), complete or truncated.
+
+A complete file (footer and summary present) is read with ``mcap.reader.make_reader`` in file
+order. A file without a readable summary (a run killed mid-way, usually ``<run>.mcap.partial``)
+is read with a streaming reader that stops at the last complete chunk; ``RunLog.complete`` is
+then False and ``RunLog.stopped_at`` says where the readable part ends (byte offset, chunk count
+and the last simulated time).
+
+Trajectory samples (``/tf`` world->base_link and ``/joint_states``) are assigned to actions in
+file order: the recorder writes an action's samples right before its ``/actions`` record.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import os
+from collections import defaultdict
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.Grid_pb2 import Grid
+from foxglove_schemas_protobuf.Log_pb2 import Log
+from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+from mcap.reader import make_reader
+from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
+
+from interllm.record.mcap_writer import (
+    ACTIONS_TOPIC,
+    BASE_FRAME,
+    DRIVEN_TOPIC,
+    GRID_PREFIX,
+    JOINT_TOPIC,
+    LOG_LEVEL_NAMES,
+    LOG_TOPIC,
+    OCCUPIED,
+    PRESUMED_TOPIC,
+    SCENE_TOPIC,
+    TF_TOPIC,
+    WORLD_FRAME,
+)
+from interllm.scene.graph import SceneGraph
+from interllm.scene.grid import OccupancyGrid
+from interllm.sim.results import ActionResult, Trajectory
+
+
+@dataclass
+class RunLog:
+    """Everything one run's MCAP holds. Times t are simulated mission time [s]."""
+
+    path: Path
+    metadata: dict[str, dict[str, str]]  # metadata records by name ("run", "end"), raw strings
+    run: dict[str, Any]  # the "run" record with JSON values decoded (config, packages, seed, ...)
+    scene: SceneGraph | None  # from the "scene.json" attachment
+    grids: dict[str, OccupancyGrid]  # from /grid/<name>
+    actions: list[ActionResult]  # from /actions (ActionResult.from_record) + their trajectories
+    contexts: list[dict[str, Any]]  # context given with each action
+    events: dict[str, list[tuple[float, dict]]]  # JSON event topic -> [(t, payload)]
+    logs: list[tuple[float, str, str]]  # /log: (t, level, message)
+    base: np.ndarray  # [N, 4] t [s], x [m], y [m], yaw [rad] of every /tf world->base_link sample
+    joint_names: tuple[str, ...]
+    joints: np.ndarray  # [N, n_joints] /joint_states positions [rad]
+    joint_t: np.ndarray  # [N] their times [s]
+    presumed_paths: list[tuple[float, np.ndarray]]  # /path/presumed (t, [K, 2])
+    driven_paths: list[tuple[float, np.ndarray]]  # /path/driven (t, [K, 2])
+    counts: dict[str, int]  # messages per topic that were read
+    complete: bool  # footer and summary present (the writer closed the file)
+    stopped_at: str | None = None  # where a truncated file stops being readable
+    summary_counts: dict[str, int] = field(default_factory=dict)  # counts from the MCAP summary
+
+    @property
+    def status(self) -> str:
+        """"ok" / "error" from the "end" record; "truncated" when the run never closed the file."""
+        return self.metadata.get("end", {}).get("status", "truncated")
+
+    @property
+    def sim_time(self) -> float:
+        """Last simulated time seen in the log [s]."""
+        ts = [0.0] + [a.t_start + a.time for a in self.actions] + [t for t, _, _ in self.logs]
+        ts += [t for v in self.events.values() for t, _ in v]
+        if len(self.base):
+            ts.append(float(self.base[-1, 0]))
+        return max(ts)
+
+
+def _yaw(qz: float, qw: float) -> float:
+    return 2.0 * math.atan2(qz, qw)
+
+
+def _grid_from_message(msg: Grid) -> OccupancyGrid:
+    cols = msg.column_count
+    data = np.frombuffer(msg.data, dtype=np.uint8)
+    rows = len(data) // max(msg.row_stride, 1)
+    arr = data.reshape(rows, msg.row_stride)[:, :cols * msg.cell_stride:msg.cell_stride]
+    return OccupancyGrid(occupied=arr >= OCCUPIED // 2, resolution=float(msg.cell_size.x),
+                         origin=(float(msg.pose.position.x), float(msg.pose.position.y)))
+
+
+def _path_from_message(msg: PosesInFrame) -> np.ndarray:
+    return np.array([[p.position.x, p.position.y] for p in msg.poses], dtype=float).reshape(-1, 2)
+
+
+class _Builder:
+    """Accumulates decoded messages (in file order) into a RunLog."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.metadata: dict[str, dict[str, str]] = {}
+        self.scene: SceneGraph | None = None
+        self.grids: dict[str, OccupancyGrid] = {}
+        self.actions: list[ActionResult] = []
+        self.contexts: list[dict] = []
+        self.events: dict[str, list[tuple[float, dict]]] = defaultdict(list)
+        self.logs: list[tuple[float, str, str]] = []
+        self.base: list[tuple[float, float, float, float]] = []
+        self.joint_t: list[float] = []
+        self.joints: list[list[float]] = []
+        self.joint_names: tuple[str, ...] = ()
+        self.presumed: list[tuple[float, np.ndarray]] = []
+        self.driven: list[tuple[float, np.ndarray]] = []
+        self.counts: dict[str, int] = defaultdict(int)
+        self._pending_base: list[tuple[float, float, float, float]] = []
+        self._pending_joints: list[tuple[float, list[float]]] = []
+        self.last_t = 0.0
+
+    def metadata_record(self, m: Metadata) -> None:
+        self.metadata[m.name] = dict(m.metadata)
+
+    def attachment(self, a: Attachment) -> None:
+        if a.name == "scene.json":
+            self.scene = SceneGraph.from_json(bytes(a.data).decode("utf-8"))
+
+    def message(self, topic: str, msg: Message) -> None:
+        t = msg.log_time / 1e9
+        self.last_t = max(self.last_t, t)
+        self.counts[topic] += 1
+        data = bytes(msg.data)
+        if topic == TF_TOPIC:
+            for tr in FrameTransforms.FromString(data).transforms:
+                if tr.parent_frame_id == WORLD_FRAME and tr.child_frame_id == BASE_FRAME:
+                    s = (t, tr.translation.x, tr.translation.y, _yaw(tr.rotation.z, tr.rotation.w))
+                    self.base.append(s)
+                    self._pending_base.append(s)
+        elif topic == JOINT_TOPIC:
+            d = json.loads(data)
+            self.joint_names = tuple(d["names"])
+            self.joint_t.append(t)
+            self.joints.append(d["positions"])
+            self._pending_joints.append((t, d["positions"]))
+        elif topic == ACTIONS_TOPIC:
+            d = json.loads(data)
+            res = ActionResult.from_record(d)
+            if self._pending_base:
+                pb = np.asarray(self._pending_base, dtype=float)
+                nj = len(self._pending_joints[0][1]) if self._pending_joints else 0
+                jt = (np.asarray([p for _, p in self._pending_joints], dtype=float)
+                      if len(self._pending_joints) == len(pb) and nj else np.zeros((len(pb), 0)))
+                res.trajectory = Trajectory(t=pb[:, 0], base=pb[:, 1:4], joints=jt,
+                                            joint_names=self.joint_names if jt.shape[1] else ())
+            self._pending_base, self._pending_joints = [], []
+            self.actions.append(res)
+            self.contexts.append(d.get("context", {}))
+        elif topic == LOG_TOPIC:
+            m = Log.FromString(data)
+            self.logs.append((t, LOG_LEVEL_NAMES.get(m.level, "unknown"), m.message))
+        elif topic == PRESUMED_TOPIC:
+            self.presumed.append((t, _path_from_message(PosesInFrame.FromString(data))))
+        elif topic == DRIVEN_TOPIC:
+            self.driven.append((t, _path_from_message(PosesInFrame.FromString(data))))
+        elif topic.startswith(GRID_PREFIX):
+            self.grids[topic[len(GRID_PREFIX):]] = _grid_from_message(Grid.FromString(data))
+        elif topic == SCENE_TOPIC:
+            pass  # the scene comes from the exact "scene.json" attachment
+        else:
+            self.events[topic].append((t, json.loads(data)))
+
+    def build(self, complete: bool, stopped_at: str | None, summary_counts: dict[str, int]) -> RunLog:
+        run: dict[str, Any] = {}
+        for k, v in self.metadata.get("run", {}).items():
+            try:
+                run[k] = json.loads(v)
+            except (json.JSONDecodeError, ValueError):
+                run[k] = v
+        return RunLog(
+            path=self.path, metadata=self.metadata, run=run, scene=self.scene, grids=self.grids,
+            actions=self.actions, contexts=self.contexts, events=dict(self.events), logs=self.logs,
+            base=np.asarray(self.base, dtype=float).reshape(-1, 4), joint_names=self.joint_names,
+            joints=np.asarray(self.joints, dtype=float).reshape(len(self.joints), -1),
+            joint_t=np.asarray(self.joint_t, dtype=float), presumed_paths=self.presumed,
+            driven_paths=self.driven, counts=dict(self.counts), complete=complete,
+            stopped_at=stopped_at, summary_counts=summary_counts)
+
+
+def _read_complete(path: Path, b: _Builder) -> dict[str, int]:
+    """Indexed read; raises if the file has no valid footer/summary."""
+    with open(path, "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        if summary is None or summary.statistics is None:
+            raise ValueError("no summary section")
+        f.seek(-8, os.SEEK_END)
+        if f.read(8) != b"\x89MCAP0\r\n":
+            raise ValueError("no trailing magic")
+        for m in reader.iter_metadata():
+            b.metadata_record(m)
+        for a in reader.iter_attachments():
+            b.attachment(a)
+        for _schema, channel, msg in reader.iter_messages(log_time_order=False):
+            b.message(channel.topic, msg)
+        return {summary.channels[cid].topic: n
+                for cid, n in summary.statistics.channel_message_counts.items()}
+
+
+def _stream_records(data: bytes) -> Iterator[tuple[Any, int]]:
+    bio = io.BytesIO(data)
+    for rec in StreamReader(bio, emit_chunks=True, validate_crcs=False).records:
+        yield rec, bio.tell()
+
+
+def _read_stream(path: Path, b: _Builder) -> tuple[bool, str | None]:
+    """Sequential read that stops at the first incomplete or corrupt record."""
+    data = path.read_bytes()
+    channels: dict[int, Channel] = {}
+    n_chunks, good_offset, footer = 0, 0, False
+    error = ""
+    try:
+        for rec, end in _stream_records(data):
+            if isinstance(rec, Chunk):
+                msgs = breakup_chunk(rec, validate_crc=True)  # whole chunk or nothing
+                n_chunks += 1
+                for r in msgs:
+                    if isinstance(r, Channel):
+                        channels[r.id] = r
+                    elif isinstance(r, Message):
+                        b.message(channels[r.channel_id].topic, r)
+            elif isinstance(rec, Channel):
+                channels[rec.id] = rec
+            elif isinstance(rec, Message):
+                b.message(channels[rec.channel_id].topic, rec)
+            elif isinstance(rec, Metadata):
+                b.metadata_record(rec)
+            elif isinstance(rec, Attachment):
+                b.attachment(rec)
+            elif isinstance(rec, Footer):
+                footer = True
+            elif isinstance(rec, Schema):
+                pass
+            good_offset = end
+    except Exception as e:  # noqa: BLE001 - any decoding failure ends the readable prefix
+        error = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
+    if footer and not error:
+        return True, None
+    return False, (f"file ends after byte {good_offset} of {len(data)} ({n_chunks} complete chunks, "
+                   f"{len(b.actions)} actions, last simulated t = {b.last_t:.3f} s); "
+                   f"the rest is incomplete ({error or 'no footer'})")
+
+
+def read_run(path: str | os.PathLike) -> RunLog:
+    """Read one run's MCAP (``.mcap`` or a killed run's ``.mcap.partial``) into a RunLog."""
+    path = Path(path)
+    if not path.exists():
+        partial = path.with_name(path.name + ".partial")
+        hint = f"; a killed run left {partial}" if partial.exists() else ""
+        raise FileNotFoundError(f"no MCAP run log at {path}{hint}")
+    with open(path, "rb") as f:
+        if f.read(8) != b"\x89MCAP0\r\n":
+            raise ValueError(f"{path} is not an MCAP file (bad magic); pass a .mcap written by McapRecorder")
+    b = _Builder(path)
+    try:
+        counts = _read_complete(path, b)
+        return b.build(True, None, counts)
+    except Exception:  # noqa: BLE001 - fall back to the streaming read below
+        b = _Builder(path)
+    complete, stopped_at = _read_stream(path, b)
+    return b.build(complete, stopped_at, {})
