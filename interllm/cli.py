@@ -18,15 +18,15 @@ from pathlib import Path
 
 
 def _scene_generate(args) -> int:
-    from interllm.config import SceneConfig
     from interllm.scene import generate_scene, render_topdown
 
-    presets = {"tiny": (4, 8, 12), "paper": (9, 26, 30), "large": (30, 90, 150), "huge": (100, 400, 2000)}
-    if args.size not in presets:
-        print(f"error: --size {args.size!r} is not one of {sorted(presets)}", file=sys.stderr)
+    from interllm.scene.catalog import CatalogError, scene_config
+
+    try:
+        cfg = scene_config(args.size, seed=args.seed)
+    except CatalogError as e:
+        print(f"error: --size: {e}", file=sys.stderr)
         return 2
-    r, f, o = presets[args.size]
-    cfg = SceneConfig(name=args.size, seed=args.seed, n_rooms=r, n_furniture=f, n_objects=o)
     scene = generate_scene(cfg, 0)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

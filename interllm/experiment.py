@@ -52,7 +52,8 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
     ids = []
     n = 1 if cfg.scene.import_path else cfg.scene.n_scenes
     for i in progress(range(n), "scenes", total=n):
-        scene = load_scene_file(cfg.scene.import_path) if cfg.scene.import_path else generate_scene(cfg.scene, i)
+        scene = load_scene_file(cfg.scene.import_path) if cfg.scene.import_path else generate_scene(
+            cfg.scene, i, robot_radius=cfg.sim.robot_radius)
         d = out_dir / scene.id
         d.mkdir(parents=True, exist_ok=True)
         atomic_write_text(d / "scene.json", scene.to_json())
@@ -61,7 +62,7 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
         atomic_write_bytes(d / "grid.npz", presumed.to_npz_bytes(true_occupied=true.occupied))
         spec = build_world_spec(scene, robot=False, sim_cfg=cfg.sim)
         atomic_write_text(d / "scene.xml", spec.to_xml())
-        missions = generate_missions(scene, cfg.mission, cfg.sim.robot_radius)
+        missions = generate_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution)
         save_missions(d / "missions.json", missions)
         render_topdown(scene, d / "topdown.png", grid=presumed)
         ids.append(scene.id)

@@ -104,3 +104,13 @@ def test_dvc_config_enables_hydra_and_disables_analytics():
     text = (ROOT / ".dvc" / "config").read_text()
     assert "analytics = false" in text
     assert "[hydra]" in text and "enabled = true" in text
+
+
+@pytest.mark.parametrize("size", ["tiny", "paper", "large", "huge"])
+def test_scene_conf_files_match_the_catalog_presets(size):
+    from interllm.scene.catalog import scene_config
+
+    cfg = OmegaConf.to_object(compose([f"scene={size}"]))
+    preset = scene_config(size)
+    assert (cfg.scene.n_rooms, cfg.scene.n_furniture, cfg.scene.n_objects) == (
+        preset.n_rooms, preset.n_furniture, preset.n_objects)

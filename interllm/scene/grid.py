@@ -115,3 +115,49 @@ def rasterize(scene: SceneGraph, resolution: float = 0.05, robot_radius: float =
         disk = (xx * xx + yy * yy) <= rad * rad
         occ = ndimage.binary_dilation(occ, structure=disk)
     return OccupancyGrid(occupied=occ, resolution=resolution, origin=origin)
+
+
+# ---- reachability helpers (added by the scene subpackage) ----------------------------------------
+def free_components(grid: OccupancyGrid, connectivity: int = 4) -> tuple[np.ndarray, int]:
+    """Label connected free regions: (labels int [rows, cols], 0 = occupied; n_labels).
+
+    connectivity: 4 (edge neighbours; conservative) or 8 (also diagonal neighbours).
+    """
+    if connectivity not in (4, 8):
+        raise ValueError(f"connectivity must be 4 or 8, got {connectivity!r}")
+    structure = ndimage.generate_binary_structure(2, 1 if connectivity == 4 else 2)
+    labels, n = ndimage.label(grid.free, structure=structure)
+    return labels, int(n)
+
+
+def largest_component(labels: np.ndarray) -> int:
+    """Label of the largest free region (0 if there is no free cell)."""
+    counts = np.bincount(labels.ravel())
+    if counts.size <= 1:
+        return 0
+    counts[0] = 0
+    return int(np.argmax(counts))
+
+
+def approach_cells(grid: OccupancyGrid, footprint: tuple[float, float, float, float],
+                   reach: float) -> np.ndarray:
+    """Free cells (k, 2) as (row, col) whose centres lie within ``reach`` [m] of a rectangle.
+
+    footprint: (x0, y0, x1, y1) [m], e.g. ``Furniture.footprint``. With an inflated grid the free
+    cells near a furniture are at least the robot radius away, so ``reach`` should be the robot
+    radius plus the arm's reach margin (e.g. 0.25 + 0.35 m).
+    """
+    x0, y0, x1, y1 = footprint
+    lo = grid.world_to_cell((x0 - reach, y0 - reach))
+    hi = grid.world_to_cell((x1 + reach, y1 + reach))
+    r0, c0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
+    r1, c1 = min(int(hi[0]) + 1, grid.shape[0]), min(int(hi[1]) + 1, grid.shape[1])
+    if r0 >= r1 or c0 >= c1:
+        return np.zeros((0, 2), dtype=int)
+    rr, cc = np.mgrid[r0:r1, c0:c1]
+    xs = grid.origin[0] + (cc + 0.5) * grid.resolution
+    ys = grid.origin[1] + (rr + 0.5) * grid.resolution
+    dx = np.maximum(np.maximum(x0 - xs, xs - x1), 0.0)
+    dy = np.maximum(np.maximum(y0 - ys, ys - y1), 0.0)
+    ok = (np.hypot(dx, dy) <= reach) & grid.free[r0:r1, c0:c1]
+    return np.stack([rr[ok], cc[ok]], axis=-1)

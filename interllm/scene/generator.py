@@ -1,0 +1,584 @@
+"""Procedural house generator: rooms on a grid, walls with doors, furniture, objects.
+
+``generate_scene(cfg, index)`` is deterministic in ``(cfg, index)``: scene ``index`` uses seed
+``cfg.seed + index`` (numpy ``Generator``; one sub-stream per attempt), and every float is rounded
+to 1e-4 m so ``scene.to_json()`` is byte-identical across runs and machines.
+
+Floor plan: ``rows x cols`` rectangular cells (column widths and row heights drawn in
+[room_size_min, room_size_max] m), one room per cell. Doors: a random spanning tree of the cell
+adjacency graph (always normal, fully open doors) plus extra doors that close loops. Only the
+extra doors may be narrow or partly closed, so removing all of them leaves the tree: every room
+stays reachable on the TRUE map and a blocked door always has a detour. If a scene has extra doors
+and ``partly_closed_door_prob > 0`` at least one of them is partly closed (so the collision /
+detour case exists in every such scene).
+
+Furniture keeps a free ring of ``placement.free_ring`` m to every other furniture and, on its free
+sides, to the walls; no furniture enters the ``door_clear_depth`` m zone in front of a door.
+Objects rest on surfaces with a placement label: front / deep / high / clutter (thresholds in
+``catalog/furniture.json``). Each catalog command whose target furniture exists receives at least
+``min_objects_per_command`` valid objects (not on its own targets), spread over rooms where possible;
+the paper's three commands must always be satisfiable (else the attempt is redrawn).
+``scene.meta["commands"]`` lists the commands each scene supports.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from interllm.config import SceneConfig
+from interllm.scene.catalog import Catalog, CommandSpec, load_catalog
+from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
+from interllm.scene.grid import approach_cells, free_components, largest_component, rasterize
+
+MAX_ATTEMPTS = 25
+FULL_SUPPORT_ATTEMPTS = 8  # attempts spent looking for a scene supporting every command
+EXTRA_DOOR_FRACTION = 0.5  # share of the non-tree adjacencies that get a door (loops)
+DOOR_END_MARGIN = 0.3  # [m] door opening keeps this far from the wall ends
+DOOR_ZONE_SIDE = 0.3  # [m] furniture-free zone extends this far beside the opening
+WALL_GAP = 0.01  # [m] between a wall's inner face and furniture backs
+REACH_MARGIN = 0.35  # [m] beyond the robot radius: how far the arm reaches over an edge
+
+
+class SceneGenerationError(RuntimeError):
+    """No valid scene after MAX_ATTEMPTS attempts; the message says which requirement failed."""
+
+
+class _Retry(Exception):
+    pass
+
+
+def r4(v: float) -> float:
+    """Round to 1e-4 (and turn -0.0 into 0.0) for byte-stable JSON."""
+    return round(float(v), 4) + 0.0
+
+
+@dataclass
+class _Build:
+    cat: Catalog
+    cfg: SceneConfig
+    rng: np.random.Generator
+    robot_radius: float
+    rooms: dict[str, Room] = field(default_factory=dict)
+    interiors: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+    walls: dict[str, Wall] = field(default_factory=dict)
+    doors: dict[str, Door] = field(default_factory=dict)
+    furniture: dict[str, Furniture] = field(default_factory=dict)
+    objects: dict[str, SceneObject] = field(default_factory=dict)
+    counters: dict[str, int] = field(default_factory=dict)
+
+    def new_id(self, kind: str) -> str:
+        self.counters[kind] = self.counters.get(kind, 0) + 1
+        return f"{kind}_{self.counters[kind]}"
+
+
+# ---- geometry helpers ----------------------------------------------------------------------------
+def _rect_gap(a, b) -> float:
+    """Euclidean distance between two axis-aligned rectangles (x0, y0, x1, y1) [m]; 0 if touching."""
+    dx = max(a[0] - b[2], b[0] - a[2], 0.0)
+    dy = max(a[1] - b[3], b[1] - a[3], 0.0)
+    return math.hypot(dx, dy)
+
+
+def _overlap(a, b) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def free_edges(scene_or_interior, furniture: Furniture, wall_tol: float = 0.3) -> tuple[str, ...]:
+    """Sides ("S", "N", "W", "E") of a furniture footprint that face free floor, not a wall.
+
+    scene_or_interior: a SceneGraph (room bounds are used) or the room interior (x0, y0, x1, y1).
+    A side closer than ``wall_tol`` [m] to the room boundary is against the wall.
+    """
+    if isinstance(scene_or_interior, SceneGraph):
+        b = scene_or_interior.rooms[furniture.room].bounds
+    else:
+        b = scene_or_interior
+    x0, y0, x1, y1 = furniture.footprint
+    out = []
+    if y0 - b[1] > wall_tol:
+        out.append("S")
+    if b[3] - y1 > wall_tol:
+        out.append("N")
+    if x0 - b[0] > wall_tol:
+        out.append("W")
+    if b[2] - x1 > wall_tol:
+        out.append("E")
+    return tuple(out)
+
+
+def edge_distances(furniture: Furniture, x: float, y: float) -> dict[str, float]:
+    """Distance [m] from a point on the surface to each side of the footprint."""
+    x0, y0, x1, y1 = furniture.footprint
+    return {"S": y - y0, "N": y1 - y, "W": x - x0, "E": x1 - x}
+
+
+# ---- floor plan ----------------------------------------------------------------------------------
+def _floor_plan(b: _Build) -> list[tuple[str, str, str]]:
+    """Rooms, doors and walls. Returns the door edges as (door id, room a, room b)."""
+    cfg, rng, cat = b.cfg, b.rng, b.cat
+    n = cfg.n_rooms
+    cols = int(math.ceil(math.sqrt(n)))
+    rows = int(math.ceil(n / cols))
+    widths = [r4(v) for v in rng.uniform(cfg.room_size_min, cfg.room_size_max, cols)]
+    heights = [r4(v) for v in rng.uniform(cfg.room_size_min, cfg.room_size_max, rows)]
+    X = [0.0]
+    for w in widths:
+        X.append(r4(X[-1] + w))
+    Y = [0.0]
+    for h in heights:
+        Y.append(r4(Y[-1] + h))
+    cells = [(r, c) for r in range(rows) for c in range(cols)][:n]
+    cellset = set(cells)
+
+    # Room types: the biggest cells go to the types that need most space.
+    types = cat.room_types_for_house(n)
+    order_types = sorted(range(n), key=lambda i: (cat.rooms[types[i]].space_rank, i))
+    order_cells = sorted(cells, key=lambda rc: (-widths[rc[1]] * heights[rc[0]], rc))
+    type_of = {order_cells[k]: types[i] for k, i in enumerate(order_types)}
+    room_of: dict[tuple[int, int], str] = {}
+    t = cfg.wall_thickness / 2
+    for rc in cells:
+        r, c = rc
+        rid = b.new_id(type_of[rc])
+        x0, x1, y0, y1 = X[c], X[c + 1], Y[r], Y[r + 1]
+        b.rooms[rid] = Room(rid, type_of[rc], ((x0, y0), (x1, y0), (x1, y1), (x0, y1)))
+        b.interiors[rid] = (r4(x0 + t), r4(y0 + t), r4(x1 - t), r4(y1 - t))
+        room_of[rc] = rid
+
+    # Doors: random spanning tree (Kruskal on shuffled edges) + extra loop doors.
+    edges = [((r, c), (r, c + 1)) for (r, c) in cells if (r, c + 1) in cellset]
+    edges += [((r, c), (r + 1, c)) for (r, c) in cells if (r + 1, c) in cellset]
+    perm = rng.permutation(len(edges))
+    parent = {rc: rc for rc in cells}
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    tree, rest = [], []
+    for k in perm:
+        a, bb = edges[int(k)]
+        ra, rb = find(a), find(bb)
+        if ra != rb:
+            parent[ra] = rb
+            tree.append(edges[int(k)])
+        else:
+            rest.append(edges[int(k)])
+    n_extra = max(1, int(round(EXTRA_DOOR_FRACTION * len(rest)))) if rest else 0
+    extra = rest[:n_extra]
+    kinds = ["normal"] * len(tree)
+    for _ in extra:
+        u = rng.random()
+        kinds.append("partly_closed" if u < cfg.partly_closed_door_prob
+                     else "narrow" if u < cfg.partly_closed_door_prob + cfg.narrow_door_prob else "normal")
+    if extra and cfg.partly_closed_door_prob > 0 and "partly_closed" not in kinds:
+        kinds[len(tree)] = "partly_closed"
+
+    openings: dict[tuple, list[tuple[float, float]]] = {}  # wall line key -> [(centre, width)]
+    out = []
+    for (a, bb), kind in zip(tree + extra, kinds, strict=True):
+        (r, c), (r2, _) = a, bb
+        width = cfg.narrow_door_width if kind == "narrow" else cfg.door_width
+        if r == r2:  # side by side: wall at x = X[c+1], running along y
+            lo, hi, axis, key = Y[r], Y[r + 1], "y", ("v", c + 1, r)
+        else:  # stacked: wall at y = Y[r+1], running along x
+            lo, hi, axis, key = X[c], X[c + 1], "x", ("h", r + 1, c)
+        span = (lo + width / 2 + DOOR_END_MARGIN, hi - width / 2 - DOOR_END_MARGIN)
+        if span[0] > span[1]:
+            raise _Retry(f"wall too short for a {width} m door")
+        pos = r4(rng.uniform(*span))
+        center = (X[c + 1], pos) if axis == "y" else (pos, Y[r + 1])
+        open_fraction = 1.0
+        if kind == "partly_closed":
+            hi_open = min(0.35, (2 * b.robot_radius - 0.1) / width)
+            open_fraction = r4(rng.uniform(0.15, max(0.15, hi_open)))
+        hinge = "low" if rng.random() < 0.5 else "high"
+        did = b.new_id("door")
+        b.doors[did] = Door(did, (room_of[a], room_of[bb]), (r4(center[0]), r4(center[1])), axis,
+                            r4(width), open_fraction, hinge)
+        openings.setdefault(key, []).append((pos, width))
+        out.append((did, room_of[a], room_of[bb]))
+
+    # Walls: every cell side once, split around door openings.
+    def add_wall_line(key, lo, hi, fixed, along):
+        cuts = sorted(openings.get(key, []))
+        s = lo
+        for pos, w in cuts:
+            if pos - w / 2 > s + 1e-9:
+                _add_wall(b, along, fixed, s, pos - w / 2)
+            s = pos + w / 2
+        if hi > s + 1e-9:
+            _add_wall(b, along, fixed, s, hi)
+
+    for r in range(rows):
+        for c in range(cols + 1):
+            if (r, c - 1) in cellset or (r, c) in cellset:
+                add_wall_line(("v", c, r), Y[r], Y[r + 1], X[c], "y")
+    for r in range(rows + 1):
+        for c in range(cols):
+            if (r - 1, c) in cellset or (r, c) in cellset:
+                add_wall_line(("h", r, c), X[c], X[c + 1], Y[r], "x")
+    return out
+
+
+def _add_wall(b: _Build, along: str, fixed: float, s: float, e: float) -> None:
+    wid = b.new_id("wall")
+    if along == "y":
+        start, end = (r4(fixed), r4(s)), (r4(fixed), r4(e))
+    else:
+        start, end = (r4(s), r4(fixed)), (r4(e), r4(fixed))
+    b.walls[wid] = Wall(wid, start, end, r4(b.cfg.wall_thickness), r4(b.cfg.wall_height))
+
+
+def _door_zones(b: _Build, rid: str) -> list[tuple[float, float, float, float]]:
+    depth = b.cat.placement.door_clear_depth
+    zones = []
+    for d in b.doors.values():
+        if rid not in d.rooms:
+            continue
+        half = d.width / 2 + DOOR_ZONE_SIDE
+        cx, cy = d.center
+        if d.axis == "x":
+            zones.append((cx - half, cy - depth, cx + half, cy + depth))
+        else:
+            zones.append((cx - depth, cy - half, cx + depth, cy + half))
+    return zones
+
+
+# ---- furniture -----------------------------------------------------------------------------------
+def _try_place_furniture(b: _Build, rid: str, category: str, tries: int = 30) -> str | None:
+    fc = b.cat.furniture[category]
+    ring = b.cat.placement.free_ring
+    ix0, iy0, ix1, iy1 = b.interiors[rid]
+    zones = _door_zones(b, rid)
+    others = [f.footprint for f in b.furniture.values() if f.room == rid]
+    a, d, h = fc.size
+    for _ in range(tries):
+        if fc.mount == "wall":
+            side = ("S", "N", "W", "E")[int(b.rng.integers(4))]
+            if side in ("S", "N"):
+                sx, sy = a, d
+                lo, hi = ix0 + sx / 2 + WALL_GAP, ix1 - sx / 2 - WALL_GAP
+                if lo > hi:
+                    continue
+                cx = b.rng.uniform(lo, hi)
+                cy = iy0 + WALL_GAP + sy / 2 if side == "S" else iy1 - WALL_GAP - sy / 2
+                if iy1 - iy0 - sy - WALL_GAP < ring:
+                    continue
+            else:
+                sx, sy = d, a
+                lo, hi = iy0 + sy / 2 + WALL_GAP, iy1 - sy / 2 - WALL_GAP
+                if lo > hi:
+                    continue
+                cy = b.rng.uniform(lo, hi)
+                cx = ix0 + WALL_GAP + sx / 2 if side == "W" else ix1 - WALL_GAP - sx / 2
+                if ix1 - ix0 - sx - WALL_GAP < ring:
+                    continue
+        else:
+            sx, sy = (a, d) if b.rng.random() < 0.5 else (d, a)
+            lox, hix = ix0 + ring + sx / 2, ix1 - ring - sx / 2
+            loy, hiy = iy0 + ring + sy / 2, iy1 - ring - sy / 2
+            if lox > hix or loy > hiy:
+                sx, sy = sy, sx
+                lox, hix = ix0 + ring + sx / 2, ix1 - ring - sx / 2
+                loy, hiy = iy0 + ring + sy / 2, iy1 - ring - sy / 2
+                if lox > hix or loy > hiy:
+                    return None
+            cx, cy = b.rng.uniform(lox, hix), b.rng.uniform(loy, hiy)
+        cx, cy = r4(cx), r4(cy)
+        fp = (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)
+        if any(_overlap(fp, z) for z in zones):
+            continue
+        if any(_rect_gap(fp, o) < ring for o in others):
+            continue
+        fid = b.new_id(category)
+        b.furniture[fid] = Furniture(fid, category, rid, (cx, cy), (r4(sx), r4(sy), r4(h)), fc.description)
+        return fid
+    return None
+
+
+def _place_all_furniture(b: _Build) -> None:
+    cat, n_target = b.cat, b.cfg.n_furniture
+    rooms = list(b.rooms.values())
+    max_core = max(len(cat.rooms[r.type].core) for r in rooms)
+    for k in range(max_core):
+        for r in rooms:
+            core = cat.rooms[r.type].core
+            if k < len(core) and len(b.furniture) < n_target:
+                _try_place_furniture(b, r.id, core[k])
+    # Every command's target furniture, where the budget allows (e.g. the dresser of the gym command).
+    for cmd in cat.commands:
+        if len(b.furniture) >= n_target or _targets(b, cmd):
+            continue
+        for r in rooms:
+            if cmd.target_room_type in (None, r.type) and len(b.furniture) < n_target:
+                if any(_try_place_furniture(b, r.id, c) for c in cmd.target_furniture):
+                    break
+    failures = 0
+    areas = np.array([(r.bounds[2] - r.bounds[0]) * (r.bounds[3] - r.bounds[1]) for r in rooms])
+    p_room = areas / areas.sum()
+    while len(b.furniture) < n_target:
+        r = rooms[int(b.rng.choice(len(rooms), p=p_room))]
+        opt = cat.rooms[r.type].optional or tuple((c, 1.0) for c in cat.rooms[r.type].core)
+        w = np.array([x[1] for x in opt])
+        category = opt[int(b.rng.choice(len(opt), p=w / w.sum()))][0]
+        if _try_place_furniture(b, r.id, category, tries=10) is None:
+            failures += 1
+            if failures > 60 + 10 * n_target:
+                raise _Retry(f"could place only {len(b.furniture)} of {n_target} furniture; "
+                             "rooms are too small (raise scene.room_size_max or lower scene.n_furniture)")
+
+
+# ---- objects -------------------------------------------------------------------------------------
+def _place_object(b: _Build, category: str, fid: str, mode: str, tries: int = 25) -> str | None:
+    """Put one object of ``category`` on furniture ``fid`` with a placement mode; None if no room."""
+    pl = b.cat.placement
+    oc = b.cat.objects[category]
+    f = b.furniture[fid]
+    fx0, fy0, fx1, fy1 = f.footprint
+    m = pl.surface_margin
+    edges = free_edges(b.rooms[f.room].bounds, f) or ("S", "N", "W", "E")
+    existing = [o for o in b.objects.values() if o.furniture == fid]
+    if f.surface_height >= pl.high_min:
+        mode = "high"
+    for _ in range(tries):
+        sx, sy = oc.size[0], oc.size[1]
+        if b.rng.random() < 0.5:
+            sx, sy = sy, sx
+        if mode in ("front", "high"):
+            e = edges[int(b.rng.integers(len(edges)))]
+            perp = sy if e in ("S", "N") else sx
+            if perp / 2 + m > pl.front_edge_max:
+                sx, sy = sy, sx
+                perp = sy if e in ("S", "N") else sx
+            dmin, dmax = perp / 2 + m, max(perp / 2 + m, pl.front_edge_max)
+            dist = b.rng.uniform(dmin, dmax)
+            if e in ("S", "N"):
+                lo, hi = fx0 + sx / 2 + m, fx1 - sx / 2 - m
+                if lo > hi:
+                    continue
+                x = b.rng.uniform(lo, hi)
+                y = fy0 + dist if e == "S" else fy1 - dist
+            else:
+                lo, hi = fy0 + sy / 2 + m, fy1 - sy / 2 - m
+                if lo > hi:
+                    continue
+                y = b.rng.uniform(lo, hi)
+                x = fx0 + dist if e == "W" else fx1 - dist
+        elif mode == "deep":
+            def need(side, half):
+                return max(pl.deep_edge_min, half + m) if side in edges else half + m
+            lox, hix = fx0 + need("W", sx / 2), fx1 - need("E", sx / 2)
+            loy, hiy = fy0 + need("S", sy / 2), fy1 - need("N", sy / 2)
+            if lox > hix or loy > hiy:
+                continue
+            x, y = b.rng.uniform(lox, hix), b.rng.uniform(loy, hiy)
+        else:  # clutter: right next to an object already there
+            if not existing:
+                return None
+            o = existing[int(b.rng.integers(len(existing)))]
+            gap = b.rng.uniform(pl.object_gap, pl.clutter_gap_max)
+            dirn = int(b.rng.integers(4))
+            ox, oy = o.position[0], o.position[1]
+            if dirn < 2:
+                x = ox + (1 if dirn == 0 else -1) * (o.size[0] / 2 + sx / 2 + gap)
+                y = oy + b.rng.uniform(-0.03, 0.03)
+            else:
+                y = oy + (1 if dirn == 2 else -1) * (o.size[1] / 2 + sy / 2 + gap)
+                x = ox + b.rng.uniform(-0.03, 0.03)
+        x, y = r4(x), r4(y)
+        box = (x - sx / 2, y - sy / 2, x + sx / 2, y + sy / 2)
+        if box[0] < fx0 + m - 1e-9 or box[2] > fx1 - m + 1e-9 or box[1] < fy0 + m - 1e-9 \
+                or box[3] > fy1 - m + 1e-9:
+            continue
+        if any(_rect_gap(box, _obox(o)) < pl.object_gap - 1e-9 for o in existing):
+            continue
+        oid = b.new_id(category)
+        b.objects[oid] = SceneObject(oid, category, fid, (x, y, r4(f.surface_height + oc.size[2] / 2)),
+                                     (r4(sx), r4(sy), r4(oc.size[2])), oc.usage, mode)
+        return oid
+    return None
+
+
+def _obox(o: SceneObject) -> tuple[float, float, float, float]:
+    return (o.position[0] - o.size[0] / 2, o.position[1] - o.size[1] / 2,
+            o.position[0] + o.size[0] / 2, o.position[1] + o.size[1] / 2)
+
+
+def _modes_for(b: _Build, fid: str, category: str) -> list[str]:
+    """Hard placement modes a furniture can offer an object of ``category``."""
+    pl = b.cat.placement
+    f = b.furniture[fid]
+    if f.surface_height >= pl.high_min:
+        return ["high"]
+    modes = []
+    edges = free_edges(b.rooms[f.room].bounds, f)
+    half = max(b.cat.objects[category].size[:2]) / 2 + pl.surface_margin
+    fx0, fy0, fx1, fy1 = f.footprint
+    dx = (fx1 - fx0) - sum(max(pl.deep_edge_min, half) if s in edges else half for s in ("W", "E"))
+    dy = (fy1 - fy0) - sum(max(pl.deep_edge_min, half) if s in edges else half for s in ("S", "N"))
+    if dx >= 0 and dy >= 0:
+        modes.append("deep")
+    if any(o.furniture == fid for o in b.objects.values()):
+        modes.append("clutter")
+    return modes
+
+
+def _add_object(b: _Build, category: str, hosts: list[str]) -> str | None:
+    """Place an object of ``category`` on one of ``hosts`` (hard with hard_placement_prob)."""
+    hosts = list(hosts)
+    pl = b.cat.placement
+    while hosts:
+        if b.rng.random() < b.cfg.hard_placement_prob:
+            offers = {h: _modes_for(b, h, category) for h in hosts}
+            modes = sorted({m for ms in offers.values() for m in ms})
+            if modes:
+                mode = modes[int(b.rng.integers(len(modes)))]
+                cand = [h for h in hosts if mode in offers[h]]
+            else:
+                mode, cand = "front", hosts
+        else:
+            low = [h for h in hosts if b.furniture[h].surface_height < pl.high_min]
+            mode, cand = "front", (low or hosts)
+        fid = cand[int(b.rng.integers(len(cand)))]
+        oid = _place_object(b, category, fid, mode)
+        if oid is None and mode != "front":
+            oid = _place_object(b, category, fid, "front")
+        if oid is not None:
+            return oid
+        hosts.remove(fid)
+    return None
+
+
+def _targets(b: _Build, cmd: CommandSpec) -> set[str]:
+    return {f.id for f in b.furniture.values() if f.category in cmd.target_furniture
+            and (cmd.target_room_type is None or b.rooms[f.room].type == cmd.target_room_type)}
+
+
+def _place_all_objects(b: _Build) -> dict[str, bool]:
+    cat, budget = b.cat, b.cfg.n_objects
+    K = cat.min_objects_per_command
+    cmds = list(cat.paper_commands()) + [c for c in cat.commands if not c.paper]
+    targets = {c.id: _targets(b, c) for c in cmds}
+    fids = list(b.furniture)
+
+    def valid(cmd):
+        return [o for o in b.objects.values() if o.category in cmd.categories
+                and o.furniture not in targets[cmd.id]]
+
+    supported: dict[str, bool] = {}
+    for cmd in cmds:
+        if not targets[cmd.id]:
+            supported[cmd.id] = False
+            if cmd.paper:
+                raise _Retry(f"no target furniture for paper command {cmd.id!r}")
+            continue
+        fails = 0
+        while len(valid(cmd)) < K and len(b.objects) < budget and fails < 20:
+            hosts_of = {c: [f for f in fids if c in cat.furniture[b.furniture[f].category].holds
+                            and f not in targets[cmd.id]] for c in cmd.categories}
+            cats = [c for c in cmd.categories if hosts_of[c]]
+            if not cats:
+                break
+            open_cmds = [c2 for c2 in cmds if targets[c2.id] and c2.id not in supported]
+            w = np.array([1.0 + sum(c in c2.categories for c2 in open_cmds if c2 is not cmd) for c in cats])
+            c = cats[int(b.rng.choice(len(cats), p=w / w.sum()))]
+            used_rooms = {b.furniture[o.furniture].room for o in valid(cmd)}
+            hosts = [h for h in hosts_of[c] if b.furniture[h].room not in used_rooms] or hosts_of[c]
+            if _add_object(b, c, hosts) is None:
+                fails += 1
+        supported[cmd.id] = len(valid(cmd)) >= K
+        if cmd.paper and not supported[cmd.id]:
+            raise _Retry(f"paper command {cmd.id!r} has fewer than {K} valid objects")
+    fails = 0
+    while len(b.objects) < budget:
+        fid = fids[int(b.rng.integers(len(fids)))]
+        holds = cat.furniture[b.furniture[fid].category].holds
+        if _add_object(b, holds[int(b.rng.integers(len(holds)))], [fid]) is None:
+            fails += 1
+            if fails > 50 + 5 * budget:
+                raise _Retry(f"could place only {len(b.objects)} of {budget} objects; surfaces are full "
+                             "(raise scene.n_furniture or lower scene.n_objects)")
+    return {c.id: supported[c.id] for c in cat.commands}
+
+
+# ---- checks --------------------------------------------------------------------------------------
+def unreachable(scene: SceneGraph, grid, robot_radius: float) -> list[str]:
+    """Ids of rooms and furniture not reachable from the largest free region of ``grid``.
+
+    A furniture is reachable if a free cell within ``robot_radius + REACH_MARGIN`` m of its
+    footprint lies in the largest free region; a room if any of its free cells does.
+    """
+    labels, _ = free_components(grid, connectivity=4)
+    main = largest_component(labels)
+    bad = []
+    for rid in sorted(scene.rooms):
+        x0, y0, x1, y1 = scene.rooms[rid].bounds
+        lo = grid.world_to_cell((x0, y0))
+        hi = grid.world_to_cell((x1, y1))
+        sub = labels[max(lo[0], 0):hi[0] + 1, max(lo[1], 0):hi[1] + 1]
+        if main == 0 or not (sub == main).any():
+            bad.append(rid)
+    for fid in sorted(scene.furniture):
+        cells = approach_cells(grid, scene.furniture[fid].footprint, robot_radius + REACH_MARGIN)
+        if main == 0 or not len(cells) or not (labels[cells[:, 0], cells[:, 1]] == main).any():
+            bad.append(fid)
+    return bad
+
+
+def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
+                   catalog: Catalog | None = None) -> SceneGraph:
+    """Generate scene ``index`` of an experiment, deterministic in (cfg, index).
+
+    cfg: scene config (counts, room sizes [m], door widths [m], probabilities, seed).
+    robot_radius: base radius [m] used to size partly closed doors (gap < 2 * radius) and to check
+        that every furniture is reachable on the presumed and the true grid.
+    """
+    cfg.validate()
+    cat = catalog or load_catalog()
+    seed = int(cfg.seed) + int(index)
+    if seed < 0:
+        raise ValueError(f"scene.seed + index must be >= 0, got {seed}; use a non-negative scene.seed")
+    reasons = []
+    house_types = set(cat.room_types_for_house(cfg.n_rooms))
+    want_all = all(c.target_room_type in house_types or c.target_room_type is None for c in cat.commands)
+    fallback = None
+    for attempt in range(MAX_ATTEMPTS):
+        rng = np.random.default_rng([seed, attempt])
+        b = _Build(cat, cfg, rng, robot_radius)
+        try:
+            _floor_plan(b)
+            _place_all_furniture(b)
+            supported = _place_all_objects(b)
+        except _Retry as e:
+            reasons.append(str(e))
+            continue
+        scene = SceneGraph(
+            id=f"{cfg.name}_s{seed:04d}", seed=seed, rooms=b.rooms, walls=b.walls, doors=b.doors,
+            furniture=b.furniture, objects=b.objects,
+            meta={"generator": "interllm.scene.generator", "preset": cfg.name, "attempt": attempt,
+                  "commands": supported, "robot_radius": robot_radius,
+                  "grid_resolution": cfg.grid_resolution})
+        bad = []
+        for doors in ("presumed", "true"):
+            grid = rasterize(scene, cfg.grid_resolution, robot_radius, doors=doors)
+            bad += [f"{x} ({doors})" for x in unreachable(scene, grid, robot_radius)]
+        if bad:
+            reasons.append(f"unreachable: {bad[:5]}")
+            continue
+        if not want_all or all(supported.values()):
+            return scene
+        # Some command lacks targets or objects: keep this scene, try a few more attempts for one
+        # that supports every command of the catalog.
+        fallback = fallback or scene
+        if attempt >= FULL_SUPPORT_ATTEMPTS:
+            return fallback
+    if fallback is not None:
+        return fallback
+    raise SceneGenerationError(f"no valid scene for seed {seed} after {MAX_ATTEMPTS} attempts; "
+                               f"last reasons: {reasons[-3:]}")
