@@ -1,0 +1,137 @@
+"""MuJoCo world built from a SceneGraph with ``mujoco.MjSpec``.
+
+Names (geoms; bodies and joints where they exist):
+- ``floor``
+- ``wall/<id>``: one box per wall segment, ``thickness`` x ``height``
+- ``door/<id>``: the door leaf, a thin box along ``Door.leaf_segment()``, only for doors that are
+  not fully open (the presumed map does not know about these)
+- ``furniture/<id>``: body + one solid box from the floor to the top surface (the footprint)
+- ``object/<id>``: body with a free joint and a box geom of the object's size, resting on its
+  furniture (box bottom = surface height)
+- ``robot/...``: the mobile manipulator of ``robot.py`` (only with ``robot=True``)
+
+``build_world_spec(scene, robot=False).to_xml()`` is the scene-only ``scene.xml`` the scenes
+stage saves; it loads with ``mujoco.MjModel.from_xml_string`` and opens in
+``python -m mujoco.viewer``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import Optional
+
+import mujoco
+
+from interllm.config import SimConfig
+from interllm.scene.graph import Furniture, SceneGraph, SceneObject
+from interllm.sim.robot import (
+    CA_OBJECT,
+    CA_STATIC,
+    CT_OBJECT,
+    CT_STATIC,
+    add_robot,
+    add_robot_assets,
+    yaw_quat,
+)
+
+_BOX = mujoco.mjtGeom.mjGEOM_BOX
+DOOR_LEAF_THICKNESS = 0.04  # [m]
+DOOR_LEAF_HEIGHT = 2.0  # [m]
+OBJECT_DENSITY = 300.0  # [kg/m^3]
+
+_FURNITURE_RGBA = (0.55, 0.4, 0.25, 1.0)
+_WALL_RGBA = (0.85, 0.85, 0.8, 1.0)
+_DOOR_RGBA = (0.45, 0.25, 0.1, 1.0)
+_OBJECT_RGBA = (0.2, 0.5, 0.85, 1.0)
+
+
+def _static(body, name: str, size, pos, quat=(1.0, 0.0, 0.0, 0.0), rgba=(0.7, 0.7, 0.7, 1.0)):
+    return body.add_geom(name=name, type=_BOX, size=list(size), pos=list(pos), quat=list(quat),
+                         rgba=list(rgba), contype=CT_STATIC, conaffinity=CA_STATIC)
+
+
+def add_segment_box(body, name: str, a, b, thickness: float, height: float, rgba) -> None:
+    """A box standing on the floor along the segment a-b (x, y) [m], extended by thickness/2 at
+    both ends so that wall corners close."""
+    (ax, ay), (bx, by) = a, b
+    length = math.hypot(bx - ax, by - ay)
+    yaw = math.atan2(by - ay, bx - ax)
+    _static(body, name, (length / 2 + thickness / 2, thickness / 2, height / 2),
+            ((ax + bx) / 2, (ay + by) / 2, height / 2), yaw_quat(yaw), rgba)
+
+
+def add_furniture(body, f: Furniture) -> None:
+    fb = body.add_body(name=f"furniture/{f.id}", pos=[f.center[0], f.center[1], 0.0])
+    _static(fb, f"furniture/{f.id}", (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2), (0, 0, f.size[2] / 2),
+            rgba=_FURNITURE_RGBA)
+
+
+def add_object(body, o: SceneObject, free: bool = True) -> None:
+    """An object box at its scene position; ``free=False`` makes it static (IK models)."""
+    ob = body.add_body(name=f"object/{o.id}", pos=list(o.position))
+    if free:
+        ob.add_freejoint(name=f"object/{o.id}")
+    sx, sy, sz = (max(v, 0.005) / 2 for v in o.size)
+    ob.add_geom(name=f"object/{o.id}", type=_BOX, size=[sx, sy, sz], rgba=list(_OBJECT_RGBA),
+                contype=CT_OBJECT, conaffinity=CA_OBJECT, density=OBJECT_DENSITY,
+                friction=[1.0, 0.01, 0.001])
+
+
+def new_spec(name: str) -> mujoco.MjSpec:
+    spec = mujoco.MjSpec()
+    spec.modelname = name
+    spec.option.timestep = 0.002
+    spec.compiler.degree = False
+    spec.worldbody.add_light(name="sun", pos=[0, 0, 10], dir=[0.3, 0.2, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+                             diffuse=[0.8, 0.8, 0.8])
+    add_robot_assets(spec)
+    return spec
+
+
+def build_world_spec(scene: SceneGraph, robot: bool = True, sim_cfg: Optional[SimConfig] = None) -> mujoco.MjSpec:
+    """The whole house as an MjSpec (compile with ``spec.compile()``).
+
+    robot: include the mobile manipulator (base joints first: qpos[0:3] = x, y, yaw).
+    sim_cfg: robot dimensions (``robot_radius``); defaults to ``SimConfig()``.
+    """
+    if not scene.rooms:
+        raise ValueError(f"scene {scene.id!r} has no rooms; a world needs at least one room")
+    spec = new_spec(f"interllm_{scene.id}")
+    wb = spec.worldbody
+    x0, y0, x1, y1 = scene.bounds
+    wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                size=[(x1 - x0) / 2 + 1.0, (y1 - y0) / 2 + 1.0, 0.1], pos=[(x0 + x1) / 2, (y0 + y1) / 2, 0],
+                rgba=[0.75, 0.72, 0.65, 1], contype=CT_STATIC, conaffinity=CA_STATIC)
+    for w in sorted(scene.walls.values(), key=lambda w: w.id):
+        add_segment_box(wb, f"wall/{w.id}", w.start, w.end, w.thickness, w.height, _WALL_RGBA)
+    for d in sorted(scene.doors.values(), key=lambda d: d.id):
+        seg = d.leaf_segment()
+        if seg is None:
+            continue
+        add_segment_box(wb, f"door/{d.id}", seg[0], seg[1], DOOR_LEAF_THICKNESS, DOOR_LEAF_HEIGHT, _DOOR_RGBA)
+    for f in sorted(scene.furniture.values(), key=lambda f: f.id):
+        add_furniture(wb, f)
+    if robot:  # before the objects, so that qpos[0:3] is the base pose
+        add_robot(wb, sim_cfg, mobile=True)
+    for o in sorted(scene.objects.values(), key=lambda o: o.id):
+        add_object(wb, o, free=True)
+    return spec
+
+
+def build_local_spec(scene: SceneGraph, furniture_id: str, sim_cfg: Optional[SimConfig] = None,
+                     exclude_objects: Iterable[str] = ()) -> mujoco.MjSpec:
+    """A small model for manipulation IK: a fixed-base robot (six arm joints only), one
+    furniture and the objects on it (static). The base pose is set at run time through
+    ``model.body_pos`` / ``model.body_quat`` of body ``robot/base``."""
+    if furniture_id not in scene.furniture:
+        raise KeyError(f"unknown furniture {furniture_id!r}; valid: {sorted(scene.furniture)[:20]}")
+    spec = new_spec(f"local_{furniture_id}")
+    wb = spec.worldbody
+    add_furniture(wb, scene.furniture[furniture_id])
+    skip = set(exclude_objects)
+    for o in sorted(scene.objects_on(furniture_id), key=lambda o: o.id):
+        if o.id not in skip:
+            add_object(wb, o, free=False)
+    add_robot(wb, sim_cfg, mobile=False)
+    return spec

@@ -1,0 +1,426 @@
+"""Execute ``pickup(object, furniture)`` and ``place(object, furniture)`` with mink IK
+(paper §IV-B eq. 2: the empirical manipulation cost is the mean of N_l trial costs).
+
+For an action at a furniture:
+1. sample ``sim.n_l`` base poses from the belief map: free cells at most 0.3 m beyond the
+   robot radius from the furniture's footprint, in the local area of the target (within 0.15 m
+   of the closest such cell to it), yaw facing the target; the sampler is seeded with
+   ``sim.seed + crc32(str(action))``;
+2. per pose, solve IK with mink on a small dedicated model (fixed-base robot with its six arm
+   joints, the furniture and the objects on it; built once per furniture layout and cached):
+   a pre-grasp pose 0.10 m above the target, then the grasp pose, both top-down (gripper
+   approach axis pointing down), with joint limits (``mink.ConfigurationLimit``) and
+   collision avoidance between the arm and the furniture / other objects
+   (``mink.CollisionAvoidanceLimit``);
+3. a trial succeeds when both solves converge (position error <= ``sim.ik_tol`` [m], orientation
+   error <= ``ROT_TOL`` [rad]) within ``sim.ik_max_iters`` iterations, the final arm has no
+   contact with the furniture or another object, and the target is inside the gripper;
+4. trial time = joint-space path length (L2 [rad], tuck -> pre-grasp -> grasp) / joint_speed,
+   + grasp_time for a successful trial; for a failed trial the joint distance it moved;
+5. sr = successes / trials, t = mean trial time, c_man = γ_man·(1 − sr) + t; the action
+   succeeds when any trial succeeded and is executed from the first successful pose.
+
+Pickup attaches the object to the gripper (kinematically: it keeps its pose in the gripper
+frame) and sets ``state.holding``; place puts it upright on the surface at the target spot
+(``scene.move_object``) and frees the hand. While held, the scene graph still lists the object
+on the furniture it was taken from; ``World.state.holding`` is the truth.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass
+from typing import Optional
+
+import mink
+import mujoco
+import numpy as np
+
+from interllm.planning.domain import Action, State
+from interllm.sim.build import build_local_spec
+from interllm.sim.results import ActionResult, ManipulationTrial, man_cost
+from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK, yaw_quat
+from interllm.sim.world import footprint_distance
+
+PRE_GRASP_HEIGHT = 0.10  # [m] above the target
+ROT_TOL = 0.1  # [rad] orientation tolerance of IK convergence
+POSE_RING = 0.30  # [m] base poses at most this far beyond robot_radius from the footprint
+LOCAL_WINDOW = 0.15  # [m] base poses at most this much farther from the target than the closest
+GRASP_MIN_HEIGHT = 0.02  # [m] grasp point (gripper site) at least this high above the surface
+INSIDE_MARGIN = 0.02  # [m] the gripper site may be this far outside the object's box
+PLACE_GAP = 0.02  # [m] clearance to other objects when placing
+STALL_ITERS = 25  # stop an IK solve after this many iterations without progress
+
+
+@dataclass
+class LocalIK:
+    """A cached small IK model around one furniture."""
+
+    model: mujoco.MjModel
+    configuration: mink.Configuration
+    base_body: int
+    grip_site: int
+    arm_geoms: list[int]
+    robot_geoms: set[int]
+    furniture_geoms: list[int]
+    object_geoms: dict[str, int]
+
+
+def _layout_key(world, furniture_id: str, exclude: tuple[str, ...]) -> tuple:
+    objs = tuple(sorted((o.id, tuple(round(v, 6) for v in o.position), tuple(o.size))
+                        for o in world.scene.objects_on(furniture_id) if o.id not in exclude))
+    return (furniture_id, objs)
+
+
+def local_ik(world, furniture_id: str, exclude: tuple[str, ...] = ()) -> LocalIK:
+    """The small IK model for a furniture's current layout (cached in the world)."""
+    key = _layout_key(world, furniture_id, exclude)
+    hit = world._ik_cache.get(key)
+    if hit is not None:
+        return hit
+    spec = build_local_spec(world.scene, furniture_id, world.cfg, exclude_objects=exclude)
+    model = spec.compile()
+    names = {g: (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "") for g in range(model.ngeom)}
+    ik = LocalIK(
+        model=model, configuration=mink.Configuration(model), base_body=model.body("robot/base").id,
+        grip_site=model.site(GRIP_SITE).id, arm_geoms=[model.geom(n).id for n in ARM_GEOMS],
+        robot_geoms={g for g, n in names.items() if n.startswith("robot/")},
+        furniture_geoms=[g for g, n in names.items() if n.startswith("furniture/")],
+        object_geoms={n.split("/", 1)[1]: g for g, n in names.items() if n.startswith("object/")})
+    assert model.nq == len(ARM_JOINTS), "the local IK model must have only the arm joints"
+    if len(world._ik_cache) > 64:
+        world._ik_cache.pop(next(iter(world._ik_cache)))
+    world._ik_cache[key] = ik
+    return ik
+
+
+def _topdown_rotation(base_xy, target_xy) -> np.ndarray:
+    """Gripper frame with its approach axis (x) pointing down and the fingers' axis (y)
+    horizontal, perpendicular to the base->target direction."""
+    d = np.array([target_xy[0] - base_xy[0], target_xy[1] - base_xy[1]], dtype=float)
+    n = float(np.linalg.norm(d))
+    d = d / n if n > 1e-9 else np.array([1.0, 0.0])
+    x = np.array([0.0, 0.0, -1.0])
+    y = np.array([-d[1], d[0], 0.0])
+    z = np.cross(x, y)
+    return np.stack([x, y, z], axis=1)
+
+
+def _rot_err(r: np.ndarray, rt: np.ndarray) -> float:
+    c = (np.trace(r.T @ rt) - 1.0) / 2.0
+    return float(math.acos(max(-1.0, min(1.0, c))))
+
+
+@dataclass
+class _Solve:
+    q: np.ndarray
+    pos_err: float
+    rot_err: float
+    converged: bool
+    reason: str
+
+
+def solve_ik(ik: LocalIK, q0: np.ndarray, target_pos: np.ndarray, target_rot: np.ndarray, cfg,
+             avoid: list[int]) -> _Solve:
+    """Drive the gripper site to a pose; arm joints only, with joint limits and collision
+    avoidance of the arm against the geoms in ``avoid``."""
+    conf = ik.configuration
+    conf.update(np.asarray(q0, dtype=float))
+    task = mink.FrameTask(GRIP_SITE, "site", position_cost=1.0, orientation_cost=0.3, lm_damping=1e-3)
+    task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(target_rot),
+                                                           np.asarray(target_pos, dtype=float)))
+    posture = mink.PostureTask(ik.model, cost=1e-3)
+    posture.set_target(TUCK)
+    limits = [mink.ConfigurationLimit(ik.model)]
+    if avoid:
+        limits.append(mink.CollisionAvoidanceLimit(ik.model, [(ik.arm_geoms, avoid)],
+                                                   minimum_distance_from_collisions=0.005,
+                                                   collision_detection_distance=0.08))
+    best = math.inf
+    since = 0
+    reason = "ik_no_convergence"
+    pe = re = math.inf
+    for _ in range(cfg.ik_max_iters + 1):
+        p = conf.data.site_xpos[ik.grip_site]
+        r = conf.data.site_xmat[ik.grip_site].reshape(3, 3)
+        pe = float(np.linalg.norm(p - target_pos))
+        re = _rot_err(r, target_rot)
+        if pe <= cfg.ik_tol and re <= ROT_TOL:
+            return _Solve(conf.q.copy(), pe, re, True, "")
+        score = pe + 0.1 * re
+        if score < best - 1e-4:
+            best, since = score, 0
+        else:
+            since += 1
+            if since >= STALL_ITERS:
+                break
+        try:
+            v = mink.solve_ik(conf, [task, posture], cfg.ik_dt, "daqp", damping=1e-3, limits=limits)
+        except mink.NoSolutionFound:
+            reason = "ik_infeasible"
+            break
+        conf.integrate_inplace(v, cfg.ik_dt)
+    return _Solve(conf.q.copy(), pe, re, False, reason)
+
+
+def _contacts(ik: LocalIK, q: np.ndarray, obstacles: set[int]) -> bool:
+    """Any contact between the arm and an obstacle at arm configuration q (the base stands on a
+    cell the belief map calls free; its contacts are navigation's business)."""
+    conf = ik.configuration
+    conf.update(q)
+    mujoco.mj_collision(ik.model, conf.data)
+    c = conf.data.contact
+    arm = set(ik.arm_geoms)
+    for i in range(conf.data.ncon):
+        g1, g2 = int(c.geom1[i]), int(c.geom2[i])
+        if (g1 in arm and g2 in obstacles) or (g2 in arm and g1 in obstacles):
+            return True
+    return False
+
+
+def sample_base_poses(world, furniture_id: str, target_xy, action: Action, n: int) -> list[tuple[float, float, float]]:
+    """N base poses (x, y, yaw) around a furniture from the belief map (module doc, step 1)."""
+    cfg = world.cfg
+    g = world.presumed_grid
+    f = world.scene.furniture[furniture_id]
+    x0, y0, x1, y1 = f.footprint
+    pad = cfg.robot_radius + POSE_RING + 2 * g.resolution
+    lo = g.world_to_cell(np.array([x0 - pad, y0 - pad]))
+    hi = g.world_to_cell(np.array([x1 + pad, y1 + pad]))
+    r0, c0 = max(0, int(lo[0])), max(0, int(lo[1]))
+    r1, c1 = min(g.shape[0], int(hi[0]) + 1), min(g.shape[1], int(hi[1]) + 1)
+    if r0 >= r1 or c0 >= c1:
+        return []
+    cells = np.argwhere(g.free[r0:r1, c0:c1]) + np.array([r0, c0])
+    if len(cells) == 0:
+        return []
+    pts = g.cell_to_world(cells)
+    ring = footprint_distance(pts, f.footprint) <= cfg.robot_radius + POSE_RING
+    pts = pts[ring]
+    if len(pts) == 0:
+        return []
+    dt = np.hypot(pts[:, 0] - target_xy[0], pts[:, 1] - target_xy[1])
+    pts = pts[dt <= dt.min() + LOCAL_WINDOW + 1e-9]
+    rng = np.random.default_rng(cfg.seed + zlib.crc32(str(action).encode("utf-8")))
+    idx = rng.choice(len(pts), size=n, replace=len(pts) < n)
+    out = []
+    for k in idx:
+        bx, by = float(pts[k, 0]), float(pts[k, 1])
+        out.append((bx, by, math.atan2(target_xy[1] - by, target_xy[0] - bx)))
+    return out
+
+
+def _run_trials(world, ik: LocalIK, action: Action, poses, target: np.ndarray, inside_box, avoid: list[int]):
+    """One trial per base pose; returns (trials, per-trial (q_pre, q_grasp) or None)."""
+    cfg = world.cfg
+    trials: list[ManipulationTrial] = []
+    sols: list[Optional[tuple[np.ndarray, np.ndarray]]] = []
+    obstacles = set(avoid)
+    for bx, by, byaw in poses:
+        ik.model.body_pos[ik.base_body] = (bx, by, 0.0)
+        ik.model.body_quat[ik.base_body] = yaw_quat(byaw)
+        rot = _topdown_rotation((bx, by), target[:2])
+        pre = target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT])
+        s1 = solve_ik(ik, TUCK, pre, rot, cfg, avoid)
+        moved = float(np.linalg.norm(s1.q - TUCK))
+        pose = (round(bx, 6), round(by, 6), round(byaw, 6))
+        if not s1.converged:
+            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, s1.reason, round(s1.pos_err, 6)))
+            sols.append(None)
+            continue
+        s2 = solve_ik(ik, s1.q, target, rot, cfg, avoid)
+        moved += float(np.linalg.norm(s2.q - s1.q))
+        if not s2.converged:
+            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, s2.reason, round(s2.pos_err, 6)))
+            sols.append(None)
+            continue
+        if _contacts(ik, s1.q, obstacles) or _contacts(ik, s2.q, obstacles):
+            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, "collision", round(s2.pos_err, 6)))
+            sols.append(None)
+            continue
+        ik.configuration.update(s2.q)
+        site = ik.configuration.data.site_xpos[ik.grip_site]
+        lo, hi = inside_box
+        if not (np.all(site >= lo - INSIDE_MARGIN) and np.all(site <= hi + INSIDE_MARGIN)):
+            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, "not_in_gripper",
+                                            round(s2.pos_err, 6)))
+            sols.append(None)
+            continue
+        trials.append(ManipulationTrial(pose, True, moved / cfg.joint_speed + cfg.grasp_time, "",
+                                        round(s2.pos_err, 6)))
+        sols.append((s1.q, s2.q))
+    return trials, sols
+
+
+def _precondition_fail(world, action: Action, reason: str) -> ActionResult:
+    return ActionResult(action=action, success=False, cost=man_cost(0.0, 0.0, world.cfg.gamma_man), time=0.0,
+                        success_rate=0.0, reason=f"{action}: {reason}")
+
+
+def _result(world, action: Action, trials, reason_fail: str) -> tuple[ActionResult, int]:
+    cfg = world.cfg
+    n = len(trials)
+    succ = [i for i, t in enumerate(trials) if t.success]
+    sr = len(succ) / n if n else 0.0
+    t_mean = float(np.mean([t.time for t in trials])) if n else 0.0
+    ok = bool(succ)
+    reason = ""
+    if not ok:
+        counts: dict[str, int] = {}
+        for t in trials:
+            counts[t.reason] = counts.get(t.reason, 0) + 1
+        why = ", ".join(f"{k} x{v}" for k, v in sorted(counts.items()))
+        reason = f"{action}: {reason_fail} from all {n} sampled base poses ({why})"
+    res = ActionResult(action=action, success=ok, cost=man_cost(sr, t_mean, cfg.gamma_man), time=t_mean,
+                       success_rate=sr, trials=trials, reason=reason)
+    return res, (succ[0] if ok else -1)
+
+
+def _execute_motion(world, pose, q_pre, q_grasp, t0: float, duration: float, at_grasp) -> list:
+    """Play tuck -> pre -> grasp -> (at_grasp) -> pre -> tuck in the world; returns samples
+    spread over [t0, t0 + duration]."""
+    world.set_base(*pose)
+    legs = [(TUCK, q_pre), (q_pre, q_grasp), (q_grasp, q_pre), (q_pre, TUCK)]
+    lens = [float(np.linalg.norm(b - a)) for a, b in legs]
+    total = sum(lens) or 1.0
+    samples = []
+    t = t0
+    world.set_arm(TUCK)
+    samples.append(world.sample(t))
+    for k, ((a, b), ln) in enumerate(zip(legs, lens, strict=False)):
+        steps = 6
+        for i in range(1, steps + 1):
+            world.set_arm(a + (b - a) * i / steps)
+            t += duration * (ln / total) / steps
+            samples.append(world.sample(t))
+        if k == 1:
+            at_grasp()
+    return samples
+
+
+def execute_pickup(world, action: Action) -> ActionResult:
+    """Pick up ``action.obj`` from ``action.furniture`` (see the module doc)."""
+    scene = world.scene
+    st: State = world.state
+    if action.kind != "pickup":
+        raise ValueError(f"execute_pickup got a {action.kind!r} action: {action}")
+    if action.furniture not in scene.furniture:
+        return _precondition_fail(world, action, f"unknown furniture {action.furniture!r}")
+    if action.obj not in scene.objects:
+        return _precondition_fail(world, action, f"unknown object {action.obj!r}")
+    if st.holding is not None:
+        return _precondition_fail(world, action, f"the hand is not free (holding {st.holding})")
+    if st.at_furniture != action.furniture:
+        return _precondition_fail(world, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
+    o = scene.objects[action.obj]
+    if o.furniture != action.furniture:
+        return _precondition_fail(world, action, f"{action.obj} is on {o.furniture}, not on {action.furniture}")
+    f = scene.furniture[action.furniture]
+    target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
+    half = np.asarray(o.size, dtype=float) / 2
+    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
+    poses = sample_base_poses(world, action.furniture, target[:2], action, world.cfg.n_l)
+    if not poses:
+        return _precondition_fail(world, action, f"no free base pose next to {action.furniture} on the robot's map")
+    ik = local_ik(world, action.furniture)
+    avoid = ik.furniture_geoms + [g for oid, g in sorted(ik.object_geoms.items()) if oid != action.obj]
+    trials, sols = _run_trials(world, ik, action, poses, target, inside, avoid)
+    res, k = _result(world, action, trials, "no collision-free grasp")
+    if k < 0:
+        res.trajectory = world.make_trajectory([world.sample(world.clock), world.sample(world.clock + res.time)])
+        return res
+    q_pre, q_grasp = sols[k]  # type: ignore[misc]
+
+    def grasp():
+        world.attach(action.obj)
+        world.state = State(st.at_furniture, st.at_room, action.obj)
+
+    samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, grasp)
+    world.forward()
+    res.trajectory = world.make_trajectory(samples)
+    return res
+
+
+def place_spot(world, furniture_id: str, obj_size, near_xy) -> Optional[np.ndarray]:
+    """A free spot (x, y, z of the object's centre) [m] on a furniture's top surface, nearest to
+    ``near_xy`` along the closest edge, inset so the object is fully on the surface and at
+    least PLACE_GAP from every other object; None if there is no room."""
+    f = world.scene.furniture[furniture_id]
+    x0, y0, x1, y1 = f.footprint
+    sx, sy, sz = (float(v) for v in obj_size)
+    m = 0.03
+    lox, hix = x0 + sx / 2 + m, x1 - sx / 2 - m
+    loy, hiy = y0 + sy / 2 + m, y1 - sy / 2 - m
+    if lox > hix or loy > hiy:
+        return None
+    others = [o for o in world.scene.objects_on(furniture_id) if o.id != world.state.holding]
+    base = np.array([np.clip(near_xy[0], lox, hix), np.clip(near_xy[1], loy, hiy)])
+    # candidates: growing offsets along x and y from the nearest point, ordered by distance
+    offs = np.arange(-1.0, 1.0001, 0.05)
+    cand = np.array([[base[0] + dx, base[1] + dy] for dx in offs for dy in offs])
+    cand = cand[(cand[:, 0] >= lox - 1e-9) & (cand[:, 0] <= hix + 1e-9) & (cand[:, 1] >= loy - 1e-9)
+                & (cand[:, 1] <= hiy + 1e-9)]
+    d = np.hypot(cand[:, 0] - near_xy[0], cand[:, 1] - near_xy[1])
+    for k in np.lexsort((cand[:, 1], cand[:, 0], np.round(d, 9))):
+        cx, cy = cand[k]
+        free = True
+        for o in others:
+            gx = abs(cx - o.position[0]) - (sx + o.size[0]) / 2
+            gy = abs(cy - o.position[1]) - (sy + o.size[1]) / 2
+            if gx < PLACE_GAP and gy < PLACE_GAP:
+                free = False
+                break
+        if free:
+            return np.array([round(float(cx), 6), round(float(cy), 6), round(f.surface_height + sz / 2, 6)])
+    return None
+
+
+def execute_place(world, action: Action) -> ActionResult:
+    """Place the held ``action.obj`` on ``action.furniture`` (see the module doc)."""
+    scene = world.scene
+    st: State = world.state
+    if action.kind != "place":
+        raise ValueError(f"execute_place got a {action.kind!r} action: {action}")
+    if action.furniture not in scene.furniture:
+        return _precondition_fail(world, action, f"unknown furniture {action.furniture!r}")
+    if st.holding != action.obj:
+        return _precondition_fail(world, action, f"the robot is not holding {action.obj} "
+                                                 f"(holding {st.holding or 'nothing'})")
+    if st.at_furniture != action.furniture:
+        return _precondition_fail(world, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
+    o = scene.objects[action.obj]
+    f = scene.furniture[action.furniture]
+    x, y, _ = world.robot_pose
+    spot = place_spot(world, action.furniture, o.size, (x, y))
+    if spot is None:
+        return _precondition_fail(world, action, f"no free spot for {action.obj} on {action.furniture}")
+    target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
+    half = np.asarray(o.size, dtype=float) / 2
+    inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
+    poses = sample_base_poses(world, action.furniture, target[:2], action, world.cfg.n_l)
+    if not poses:
+        return _precondition_fail(world, action, f"no free base pose next to {action.furniture} on the robot's map")
+    ik = local_ik(world, action.furniture, exclude=(action.obj,))
+    avoid = ik.furniture_geoms + [g for _, g in sorted(ik.object_geoms.items())]
+    trials, sols = _run_trials(world, ik, action, poses, target, inside, avoid)
+    res, k = _result(world, action, trials, "no collision-free placing pose")
+    if k < 0:
+        res.trajectory = world.make_trajectory([world.sample(world.clock), world.sample(world.clock + res.time)])
+        return res
+    q_pre, q_grasp = sols[k]  # type: ignore[misc]
+
+    def release():
+        world.state = State(st.at_furniture, st.at_room, None)
+        world.held_offset = None
+        pos = (float(spot[0]), float(spot[1]), float(spot[2]))
+        world.scene.move_object(action.obj, action.furniture, pos)
+        world.set_object_pose(action.obj, pos)
+
+    samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, release)
+    world.forward()
+    res.trajectory = world.make_trajectory(samples)
+    return res
+
+
+__all__ = ["execute_pickup", "execute_place", "local_ik", "place_spot", "sample_base_poses", "solve_ik"]

@@ -1,0 +1,221 @@
+import math
+
+import numpy as np
+import pytest
+
+from interllm.config import SimConfig
+from interllm.planning.domain import Action, State
+from interllm.planning.search import path_length
+from interllm.scene.graph import Door, Furniture, Mission, Room, SceneGraph, SceneObject, Wall
+from interllm.sim.results import ActionResult, man_cost, nav_cost
+from interllm.sim.world import World
+
+# Room A [0,4]x[0,4] and room B [4,8]x[0,4]; the wall x = 4 has door_a (y in [0.5, 1.5]) and
+# door_b (y in [2.5, 3.5]). Grid cell centres are at -0.475 + 0.05 k.
+START = (1.525, 0.875, 0.0)
+
+
+def house(open_a: float = 1.0, open_b: float = 1.0) -> SceneGraph:
+    sg = SceneGraph(id="two_rooms", seed=0)
+    sg.rooms["room_a"] = Room("room_a", "kitchen", ((0, 0), (4, 0), (4, 4), (0, 4)))
+    sg.rooms["room_b"] = Room("room_b", "living_room", ((4, 0), (8, 0), (8, 4), (4, 4)))
+    walls = [((0, 0), (8, 0)), ((0, 4), (8, 4)), ((0, 0), (0, 4)), ((8, 0), (8, 4)),
+             ((4, 0), (4, 0.5)), ((4, 1.5), (4, 2.5)), ((4, 3.5), (4, 4))]
+    for i, (a, b) in enumerate(walls):
+        sg.walls[f"wall_{i}"] = Wall(f"wall_{i}", a, b, 0.1, 2.5)
+    sg.doors["door_a"] = Door("door_a", ("room_a", "room_b"), (4, 1.0), "y", 1.0, open_fraction=open_a)
+    sg.doors["door_b"] = Door("door_b", ("room_a", "room_b"), (4, 3.0), "y", 1.0, open_fraction=open_b)
+    sg.furniture["counter_1"] = Furniture("counter_1", "counter", "room_a", (0.5, 1.0), (0.6, 1.2, 0.9))
+    sg.furniture["sofa_1"] = Furniture("sofa_1", "sofa", "room_b", (6.0, 0.35), (1.2, 0.5, 0.45))
+    # a wide table: 1.4 x 1.0, top at 0.75 m
+    sg.furniture["table_1"] = Furniture("table_1", "dining_table", "room_b", (6.3, 2.3), (1.4, 1.0, 0.75))
+    # front: 0.1 m from the south edge; deep: the middle, 0.5 m from every edge
+    sg.objects["cup_1"] = SceneObject("cup_1", "cup", "table_1", (6.3, 1.9, 0.8), (0.08, 0.08, 0.1))
+    sg.objects["apple_1"] = SceneObject("apple_1", "apple", "table_1", (6.3, 2.3, 0.79), (0.08, 0.08, 0.08),
+                                        placement="deep")
+    return sg
+
+
+def mission() -> Mission:
+    return Mission("m0", "two_rooms", START, "counter_1", ())
+
+
+def nav(fid: str, room: str) -> Action:
+    return Action("navigate", fid, room=room)
+
+
+@pytest.fixture(scope="module")
+def world_open() -> World:
+    return World(house(), SimConfig())
+
+
+def test_reset_state_and_pose(world_open):
+    w = world_open
+    st = w.reset(mission())
+    assert st == State("counter_1", "room_a", None)
+    assert w.robot_pose == pytest.approx(START)
+    assert w.clock == 0.0
+    assert w.true_grid.occupied.shape == w.presumed_grid.occupied.shape
+
+
+def test_straight_corridor_distance_equals_path_length(world_open):
+    w = world_open
+    w.reset(mission())
+    a = w.anchor("sofa_1")
+    assert a[1] == pytest.approx(START[1])  # anchor north of the sofa, on the start's row
+    planned = w.presumed_path(START[:2], "sofa_1")
+    r = w.execute(nav("sofa_1", "room_b"))
+    assert r.success and r.collisions == 0 and r.reason == ""
+    assert r.distance == pytest.approx(a[0] - START[0])  # a straight line along the row
+    assert r.distance == pytest.approx(path_length(r.presumed_path))
+    assert np.allclose(r.presumed_path, planned)
+    assert np.allclose(r.driven_path[-1], a)
+    # straight east from yaw 0: no turns -> t = d / v
+    cfg = w.cfg
+    assert r.time == pytest.approx(r.distance / cfg.base_speed)
+    assert r.cost == pytest.approx(nav_cost(0, r.time, r.distance, cfg.gamma_nav))
+    assert w.state == State("sofa_1", "room_b", None)
+    assert w.clock == pytest.approx(r.time) and r.t_start == 0.0
+    tr = r.trajectory
+    assert tr is not None and np.all(np.diff(tr.t) >= 0) and tr.t[-1] == pytest.approx(r.time)
+    assert tr.base.shape[1] == 3 and tr.joints.shape[1] == 6
+
+
+def test_half_closed_door_one_collision_and_replan_through_other_door():
+    w = World(house(open_a=0.5), SimConfig())  # door_a's leaf blocks y in [0.5, 1.0]
+    w.reset(mission())
+    r = w.execute(nav("sofa_1", "room_b"))
+    assert r.success, r.reason
+    assert r.collisions == 1
+    # the presumed path went through door_a, the driven one continues through door_b
+    cross_pre = r.presumed_path[np.argmin(np.abs(r.presumed_path[:, 0] - 4.0))]
+    assert 0.5 < cross_pre[1] < 1.5
+    d = r.driven_path
+    crossings = [(d[i], d[i + 1]) for i in range(len(d) - 1) if (d[i][0] - 4.0) * (d[i + 1][0] - 4.0) < 0]
+    assert len(crossings) == 1 and 2.5 < crossings[0][0][1] < 3.5
+    assert r.distance == pytest.approx(path_length(d))
+    assert r.distance > path_length(r.presumed_path) + 1.0
+    cfg = w.cfg
+    assert r.cost == pytest.approx(nav_cost(1, r.time, r.distance, cfg.gamma_nav))
+    assert r.time >= r.distance / cfg.base_speed + cfg.recovery_time
+    # the belief map learned the leaf; the truth map is untouched and never used
+    leaf_cell = tuple(w.presumed_grid.world_to_cell(np.array([3.9, 0.75])))
+    assert w.presumed_grid.occupied[leaf_cell]
+    assert np.array_equal(w.true_grid.occupied, World(house(open_a=0.5)).true_grid.occupied)
+    # the next plan through the area avoids door_a at once
+    p = w.presumed_path(START[:2], "sofa_1")
+    cross = p[np.argmin(np.abs(p[:, 0] - 4.0))]
+    assert 2.5 < cross[1] < 3.5
+
+
+def test_blocked_everywhere_fails_bounded_and_keeps_state():
+    cfg = SimConfig(max_nav_replans=3)
+    w = World(house(open_a=0.5, open_b=0.45), cfg)
+    st0 = w.reset(mission())
+    r = w.execute(nav("sofa_1", "room_b"))
+    assert not r.success
+    assert 1 <= r.collisions <= cfg.max_nav_replans + 1
+    assert "navigate(sofa_1, room_b)" in r.reason and "door_" in r.reason
+    assert w.state == st0
+    assert r.time > 0 and w.clock == pytest.approx(r.time)
+
+
+def test_bad_navigate_targets_fail_with_reason(world_open):
+    w = world_open
+    st0 = w.reset(mission())
+    r = w.execute(nav("piano_9", "room_b"))
+    assert not r.success and "unknown furniture" in r.reason and "sofa_1" in r.reason
+    r = w.execute(nav("sofa_1", "room_a"))
+    assert not r.success and "is in room room_b" in r.reason
+    assert w.state == st0
+
+
+def test_deep_object_fails_from_every_pose_front_succeeds():
+    w = World(house(), SimConfig())
+    w.reset(mission())
+    assert w.execute(nav("table_1", "room_b")).success
+    deep = w.execute(Action("pickup", "table_1", obj="apple_1"))
+    cfg = w.cfg
+    assert not deep.success and deep.success_rate == 0.0
+    assert len(deep.trials) == cfg.n_l and not any(t.success for t in deep.trials)
+    assert "from all 5 sampled base poses" in deep.reason
+    assert deep.time == pytest.approx(np.mean([t.time for t in deep.trials]))
+    assert deep.cost == pytest.approx(man_cost(0.0, deep.time, cfg.gamma_man))
+    assert w.state.holding is None
+    front = w.execute(Action("pickup", "table_1", obj="cup_1"))
+    assert front.success, front.reason
+    assert front.success_rate >= 0.6
+    n_ok = sum(t.success for t in front.trials)
+    assert front.success_rate == pytest.approx(n_ok / len(front.trials))
+    assert front.cost == pytest.approx(man_cost(front.success_rate, front.time, cfg.gamma_man))
+    assert all(t.time >= cfg.grasp_time for t in front.trials if t.success)
+    # sampled poses: free on the belief map, next to the table, facing the target
+    for t in front.trials:
+        x, y, yaw = t.base_pose
+        assert w.presumed_grid.is_free(w.presumed_grid.world_to_cell(np.array([x, y])))
+        assert yaw == pytest.approx(math.atan2(1.9 - y, 6.3 - x), abs=1e-5)
+    assert w.state == State("table_1", "room_b", "cup_1")
+    assert w.clock == pytest.approx(sum(r.time for r in w.log))
+
+
+def test_carry_moves_with_gripper_and_place_rests_on_surface():
+    w = World(house(), SimConfig())
+    w.reset(mission())
+    w.execute(nav("table_1", "room_b"))
+    assert w.execute(Action("pickup", "table_1", obj="cup_1")).success
+
+    def rel():
+        p_s, r_s = w.grip_pose()
+        p_o, _ = w.object_pose("cup_1")
+        return r_s.T @ (p_o - p_s)
+
+    off0 = rel()
+    assert np.linalg.norm(off0) < 0.05  # grasped at its centre (within tolerance)
+    p_before, _ = w.object_pose("cup_1")
+    r = w.execute(nav("counter_1", "room_a"))
+    assert r.success
+    p_after, _ = w.object_pose("cup_1")
+    assert np.linalg.norm(p_after[:2] - p_before[:2]) > 3.0  # it travelled with the robot
+    assert np.allclose(rel(), off0, atol=1e-9)
+    pl = w.execute(Action("place", "counter_1", obj="cup_1"))
+    assert pl.success, pl.reason
+    o = w.scene.objects["cup_1"]
+    f = w.scene.furniture["counter_1"]
+    assert o.furniture == "counter_1"
+    assert o.position[2] == pytest.approx(f.surface_height + o.size[2] / 2)
+    x0, y0, x1, y1 = f.footprint
+    assert x0 <= o.position[0] - o.size[0] / 2 and o.position[0] + o.size[0] / 2 <= x1
+    assert y0 <= o.position[1] - o.size[1] / 2 and o.position[1] + o.size[1] / 2 <= y1
+    assert np.allclose(w.object_pose("cup_1")[0], o.position)
+    assert w.state == State("counter_1", "room_a", None)
+    # the hand moves away, the object stays
+    w.set_arm(np.zeros(6))
+    assert np.allclose(w.object_pose("cup_1")[0], o.position)
+
+
+def test_manipulation_preconditions():
+    w = World(house(), SimConfig())
+    w.reset(mission())
+    r = w.execute(Action("pickup", "table_1", obj="cup_1"))  # robot is at counter_1
+    assert not r.success and "not at table_1" in r.reason and r.trials == []
+    r = w.execute(Action("place", "counter_1", obj="cup_1"))
+    assert not r.success and "not holding cup_1" in r.reason
+    assert w.state == State("counter_1", "room_a", None)
+
+
+def _run(seed: int) -> list[dict]:
+    w = World(house(open_a=0.5), SimConfig(seed=seed))
+    w.reset(mission())
+    plan = [nav("sofa_1", "room_b"), nav("table_1", "room_b"), Action("pickup", "table_1", obj="cup_1"),
+            nav("counter_1", "room_a"), Action("place", "counter_1", obj="cup_1")]
+    return [w.execute(a).to_record() for a in plan]
+
+
+def test_two_runs_identical_and_records_round_trip():
+    a, b = _run(0), _run(0)
+    assert a == b
+    assert all(x["success"] for x in a)
+    r = ActionResult.from_record(a[2])
+    assert r.to_record() == a[2]
+    assert a[0]["collisions"] == 1
+    assert [x["t_start"] for x in a] == pytest.approx(np.cumsum([0] + [x["time"] for x in a[:-1]]).tolist())
