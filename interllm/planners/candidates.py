@@ -1,0 +1,48 @@
+"""Initial plan candidates: M per command, from the initial scene and the mission's start state.
+
+Generated once (the ``candidates`` stage) and given to every planner, so all three start from
+the same plans (the paper's fair comparison). Seeds derive from (llm.seed, "candidates", mission
+id, command id), never from the planner.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from interllm.config import ExperimentConfig
+from interllm.planning import proposals as P
+from interllm.planning.domain import Plan, State, plan_from_list, plan_to_list
+from interllm.scene.graph import Mission, SceneGraph
+
+
+def start_state(scene: SceneGraph, mission: Mission) -> State:
+    if mission.start_furniture not in scene.furniture:
+        raise ValueError(f"mission {mission.id!r}: start_furniture {mission.start_furniture!r} is not a "
+                         f"furniture of scene {scene.id!r}")
+    return State(mission.start_furniture, scene.furniture[mission.start_furniture].room, None)
+
+
+def generate_initial_candidates(scene: SceneGraph, mission: Mission, client: Any,
+                                cfg: ExperimentConfig) -> dict:
+    """{command_id: [plan as list of action dicts, ...] (M each)} — JSON-able."""
+    state = start_state(scene, mission)
+    out: dict[str, list[list[dict]]] = {}
+    M = cfg.planner.M
+    for cmd in mission.commands:
+        ctx = (("stage", "candidates"), ("scene", scene.id), ("mission", mission.id), ("command", cmd.id))
+        n = int(cmd.goal.n_objects)
+        if cfg.llm.proposal_mode == "generate":
+            plans = P.generate_plans(client, scene, state, cmd, cfg, M, n, None, ctx)
+        else:
+            scores = P.score_command(client, scene, cmd, cfg, None, ctx)
+            plans = P.propose_by_scores(scores, scene, state, n, M, cfg.llm.temperature,
+                                        P.derive_seed(cfg.llm.seed, "candidates", mission.id, cmd.id))
+        out[cmd.id] = [plan_to_list(p) for p in plans]
+    return out
+
+
+def candidates_from_json(d: dict) -> dict[str, list[Plan]]:
+    """The inverse of ``generate_initial_candidates``' output: {command_id: [Plan, ...]}."""
+    if not isinstance(d, dict):
+        raise ValueError("initial candidates must be a dict {command_id: [plan, ...]}")
+    return {cid: [plan_from_list(p) for p in plans] for cid, plans in d.items()}

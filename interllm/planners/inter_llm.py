@@ -1,0 +1,123 @@
+"""Inter-LLM (paper Algorithm 1): interleaved LLM and motion planning.
+
+Per command:
+1. candidates: the M shared initial candidates for the first command; for later commands M new
+   candidates proposed WITH the known costs in the prompt (generate) / scoring prompts (score),
+   from the current scene graph and state, excluding objects delivered by earlier commands;
+2. feasibility check + bounded regeneration (planner.max_regenerations) per candidate; a
+   candidate still infeasible at the bound is dropped and recorded;
+3. ĉ_total of each candidate with the multimodal similarity function: presumed path of every
+   navigate (from the robot's pose for the first one, else from the anchor of the previous
+   furniture, via ``world.presumed_path``) compared with every navigated path (P°); manipulation
+   costs inferred by the LLM from the known ones (an exact (action, state) already measured uses
+   its known cost); ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid/N_man;
+4. execute the argmin action by action (``world.execute``), updating C^known with every result;
+   a failed action skips the rest of that object's actions (see ``PlannerContext.execute_plan``).
+"""
+
+from __future__ import annotations
+
+from interllm.planners.base import CommandResult
+from interllm.planners.context import PlannerContext, finish, new_result, robot_xy
+from interllm.planning import proposals as P
+from interllm.planning.costs import (
+    CostEstimate,
+    PlanEstimate,
+    decode_cost,
+    encode_cost,
+    estimate_navigation,
+    plan_total,
+)
+from interllm.planning.domain import Plan, State, plan_to_list
+from interllm.scene.graph import Command
+
+
+class InterLLMPlanner:
+    name = "inter_llm"
+
+    def __init__(self) -> None:
+        self._n_commands = 0
+
+    # ---- proposals ----------------------------------------------------------------------
+    def propose(self, command: Command, ctx: PlannerContext) -> list[Plan]:
+        if self._n_commands == 0 and ctx.candidates_for(command):
+            return ctx.candidates_for(command)
+        cfg, world = ctx.cfg, ctx.world
+        n = ctx.n_objects(command)
+        if cfg.llm.proposal_mode == "generate":
+            return P.generate_plans(ctx.client, world.scene, world.state, command, cfg, cfg.planner.M, n,
+                                    ctx.memory, ctx.labels(command))
+        scores = ctx.scores(command, ctx.memory)
+        return P.propose_by_scores(scores, world.scene, world.state, n, cfg.planner.M, cfg.llm.temperature,
+                                   ctx.seed("propose", command.id), sorted(ctx.delivered))
+
+    # ---- estimation ---------------------------------------------------------------------
+    def estimate(self, plan: Plan, command: Command, ctx: PlannerContext, paths: dict, labels: dict,
+                 result: CommandResult) -> PlanEstimate:
+        world, cfg, mem = ctx.world, ctx.cfg, ctx.memory
+        state: State = world.state
+        prev = None  # previous furniture (None: start from the robot's pose)
+        nav: list[CostEstimate] = []
+        man: list[CostEstimate] = []
+        for a in plan:
+            if a.kind == "navigate":
+                key = (prev, a.furniture)
+                if key not in paths:
+                    start = robot_xy(world) if prev is None else world.anchor(prev)
+                    paths[key] = world.presumed_path(start, a.furniture)
+                est, src = estimate_navigation(paths[key], mem, cfg.planner.epsilon_d,
+                                               cfg.planner.nav_estimate, cfg.sim.base_speed)
+                nav.append(CostEstimate(str(a), "navigate", est, src))
+                prev = a.furniture
+                state = State(a.furniture, world.scene.furniture[a.furniture].room, state.holding)
+                continue
+            known = mem.manipulation_cost(a, state)
+            if known is not None:
+                man.append(CostEstimate(str(a), a.kind, known, "known", encode_cost(known), True))
+            else:
+                lk = (str(a), state.describe())
+                if lk not in labels:
+                    labels[lk] = P.infer_manipulation_cost(ctx.client, a, world.scene, mem, cfg,
+                                                           (ctx.mission.id, command.id, len(mem)),
+                                                           ctx.labels(command))
+                    result.cost_inferences.append({"action": str(a), "predicted": labels[lk],
+                                                   "estimate": decode_cost(labels[lk])})
+                lab = labels[lk]
+                man.append(CostEstimate(str(a), a.kind, decode_cost(lab), "llm", lab, lab != "unknown"))
+            if prev is None:
+                prev = state.at_furniture
+            holding = a.obj if a.kind == "pickup" else None
+            state = State(state.at_furniture, state.at_room, holding)
+        total = plan_total([e.estimate for e in nav], [e.estimate for e in man], [e.valid for e in man])
+        return PlanEstimate(total, nav, man)
+
+    # ---- one command --------------------------------------------------------------------
+    def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
+        ctx.client.reset()
+        result = new_result(command)
+        proposed = self.propose(command, ctx)
+        self._n_commands += 1
+        ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
+                                                   "source": "initial" if self._n_commands == 1
+                                                   else "reproposed"})
+        feasible: list[Plan] = []
+        for j, plan in enumerate(proposed):
+            ok = ctx.check_and_repair(command, plan, j, ctx.cfg.planner.max_regenerations, result,
+                                      known=ctx.memory)
+            if ok is not None:
+                feasible.append(ok)
+        result.candidates = feasible
+        if not feasible:
+            result.notes.append("no feasible candidate: nothing executed for this command")
+            return finish(ctx, result)
+        paths: dict = {}
+        labels: dict = {}
+        estimates = [self.estimate(p, command, ctx, paths, labels, result) for p in feasible]
+        result.estimated_costs = [e.total for e in estimates]
+        ctx.event("/planner/estimates", command, {"estimates": [e.to_dict() for e in estimates]})
+        best = min(range(len(feasible)), key=lambda i: (estimates[i].total, i))
+        result.selected_plan = feasible[best]
+        ctx.event("/planner/selected", command, {"index": best, "plan": plan_to_list(feasible[best]),
+                                                 "estimate": estimates[best].total})
+        ctx.execute_plan(command, feasible[best], result)
+        return finish(ctx, result)

@@ -1,0 +1,43 @@
+"""SayPlan baseline (Rana et al. 2023) as the paper describes it.
+
+Plans from semantics alone: the shared initial candidates are taken in order; each is checked
+against the symbolic scene-graph simulator (``planning.feasibility``) and replanned from its
+violation feedback up to ``planner.sayplan_max_iterations`` rounds; the first feasible one is
+executed open-loop. No execution costs are used, and there is no replanning after an execution
+failure (the failed object's remaining actions are skipped, as for every planner).
+"""
+
+from __future__ import annotations
+
+from interllm.planners.base import CommandResult
+from interllm.planners.context import PlannerContext, finish, new_result
+from interllm.planning.domain import plan_to_list
+from interllm.scene.graph import Command
+
+
+class SayPlanPlanner:
+    name = "sayplan"
+
+    def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
+        ctx.client.reset()
+        result = new_result(command)
+        proposed = ctx.candidates_for(command)
+        ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
+                                                   "source": "initial"})
+        if not proposed:
+            result.notes.append(f"no initial candidates for command {command.id!r}")
+            return finish(ctx, result)
+        selected = None
+        for j, plan in enumerate(proposed):
+            ok = ctx.check_and_repair(command, plan, j, ctx.cfg.planner.sayplan_max_iterations, result)
+            if ok is not None:
+                selected = ok
+                result.candidates = [ok]
+                ctx.event("/planner/selected", command, {"index": j, "plan": plan_to_list(ok)})
+                break
+        if selected is None:
+            result.notes.append("no feasible candidate: nothing executed for this command")
+            return finish(ctx, result)
+        result.selected_plan = selected
+        ctx.execute_plan(command, selected, result)
+        return finish(ctx, result)

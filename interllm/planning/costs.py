@@ -1,0 +1,119 @@
+"""Cost estimation of plan candidates (paper §IV-C): text encoding/decoding, ĉ_nav, ĉ_total.
+
+- ``encode_cost``: f_en(c) = hard if c > 15, medium if 5 <= c <= 15, easy if c < 5.
+- ``decode_cost``: f_de = hard 20, medium 10, easy 5, unknown 0.
+- ``estimate_navigation``: ĉ(a_nav) from the presumed path p_pre and the known navigations
+  (p_i, c_i) ∈ C^naved, with mode
+    * ``paper_sum`` (default, the paper's eq. 8): ĉ = Σ_i c_i · P°(p_pre, p_i). Unnormalised: it
+      grows with the history and is 0 for a path that overlaps no known path.
+    * ``weighted_mean``: ĉ = Σ_i c_i·P° / Σ_i P°, a similarity-weighted mean of the known costs
+      (same units as c_nav). When Σ P° = 0 (no known path overlaps) it falls back as below.
+  With no known navigation at all (the first command) both modes fall back to the presumed
+  path's own cost c_nav with cc = 0: t = length/base_speed [s], d = length [m] (turn time ignored).
+- ``plan_total``: ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid/N_man, N_valid = number of manipulation
+  estimates that are not ``unknown``; 0/0 is defined as 0 (a plan without manipulations).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from interllm.planning.memory import KnownCosts
+from interllm.planning.similarity import path_overlap
+
+COST_LABELS = ("easy", "medium", "hard", "unknown")
+DECODE = {"hard": 20.0, "medium": 10.0, "easy": 5.0, "unknown": 0.0}
+NAV_MODES = ("paper_sum", "weighted_mean")
+# Estimate of a navigation whose presumed path does not exist on the belief map.
+UNREACHABLE_COST = 1.0e6
+
+
+def encode_cost(cost: float) -> str:
+    """f_en: numeric manipulation cost -> "easy" (< 5) | "medium" (5..15 inclusive) | "hard" (> 15)."""
+    if cost > 15:
+        return "hard"
+    if cost >= 5:
+        return "medium"
+    return "easy"
+
+
+def decode_cost(label: str) -> float:
+    """f_de: "hard" 20, "medium" 10, "easy" 5, "unknown" 0 (case and whitespace ignored)."""
+    key = str(label).strip().lower()
+    if key not in DECODE:
+        raise ValueError(f"cost label {label!r} is not one of {list(COST_LABELS)}")
+    return DECODE[key]
+
+
+def path_length(path) -> float:
+    """Polyline length [m] of an [N, 2] path."""
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    if len(p) < 2:
+        return 0.0
+    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+
+
+@dataclass
+class CostEstimate:
+    """One action's estimated cost inside a candidate."""
+
+    action: str  # str(Action)
+    kind: str  # navigate | pickup | place
+    estimate: float
+    source: str  # "similarity" | "fallback_presumed" | "unreachable" | "llm" | "known"
+    label: Optional[str] = None  # manipulation: easy|medium|hard|unknown
+    valid: bool = True  # manipulation: label != unknown
+
+    def to_dict(self) -> dict:
+        return {"action": self.action, "kind": self.kind, "estimate": float(self.estimate),
+                "source": self.source, "label": self.label, "valid": self.valid}
+
+
+@dataclass
+class PlanEstimate:
+    total: float
+    nav: list[CostEstimate] = field(default_factory=list)
+    man: list[CostEstimate] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"total": float(self.total), "nav": [e.to_dict() for e in self.nav],
+                "man": [e.to_dict() for e in self.man]}
+
+
+def estimate_navigation(presumed_path, known: KnownCosts, eps: float, mode: str = "paper_sum",
+                        base_speed: float = 0.5) -> tuple[float, str]:
+    """ĉ_nav for a presumed path [N, 2] [m] -> (estimate, source). ``eps``: ε [m];
+    ``base_speed`` [m/s] for the fallback. See the module docstring for the two modes."""
+    if mode not in NAV_MODES:
+        raise ValueError(f"planner.nav_estimate {mode!r} is not one of {list(NAV_MODES)}")
+    if presumed_path is None:
+        return UNREACHABLE_COST, "unreachable"
+    p = np.asarray(presumed_path, dtype=float).reshape(-1, 2)
+    recs = known.naved
+    length = path_length(p)
+    fallback = length / base_speed + length
+    if not recs or len(p) == 0:
+        return fallback, "fallback_presumed"
+    overlaps = np.array([path_overlap(p, r.path, eps) for r in recs])
+    costs = np.array([r.cost for r in recs])
+    if mode == "paper_sum":
+        return float(np.sum(costs * overlaps)), "similarity"
+    s = float(overlaps.sum())
+    if s <= 0:
+        return fallback, "fallback_presumed"
+    return float(np.sum(costs * overlaps) / s), "similarity"
+
+
+def plan_total(nav_estimates: Sequence[float], man_estimates: Sequence[float],
+               man_valid: Sequence[bool]) -> float:
+    """ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid / N_man (0/0 := 0)."""
+    if len(man_estimates) != len(man_valid):
+        raise ValueError("man_estimates and man_valid must have the same length")
+    n_man = len(man_estimates)
+    n_valid = sum(bool(v) for v in man_valid)
+    factor = (n_valid / n_man) if n_man else 0.0
+    return float(sum(nav_estimates)) + float(sum(man_estimates)) * factor

@@ -1,0 +1,167 @@
+"""Planners end to end on the symbolic test world with fake LLM clients (fast)."""
+
+import json
+
+import pytest
+from test_planners_fakes import FakeScoreClient, ScriptedClient, SymbolicWorld, tiny_mission, tiny_scene
+
+from interllm.config import ExperimentConfig
+from interllm.planners import names
+from interllm.planners.candidates import generate_initial_candidates
+from interllm.planners.runner import run_mission
+from interllm.planning.domain import Action, plan_to_list
+
+
+class ListRecorder:
+    def __init__(self):
+        self.events, self.actions, self.logs = [], [], []
+
+    def event(self, topic, t, payload):
+        json.dumps(payload)  # must be JSON-able
+        self.events.append((topic, t, payload))
+
+    def action(self, result, context):
+        self.actions.append((result, context))
+
+    def log(self, t, level, message):
+        self.logs.append((t, level, message))
+
+
+def cfg_for(**planner):
+    cfg = ExperimentConfig()
+    for k, v in planner.items():
+        setattr(cfg.planner, k, v)
+    return cfg
+
+
+def run(name, cfg=None, hard=(), blocked=(), client=None, cands=None, recorder=None):
+    cfg = cfg or ExperimentConfig()
+    scene, mission = tiny_scene(), tiny_mission()
+    client = client or FakeScoreClient()
+    cands = cands if cands is not None else generate_initial_candidates(scene, mission, client, cfg)
+    world = SymbolicWorld(scene, cfg.sim, hard, blocked)
+    rec = run_mission(name, scene, mission, cands, client, cfg, recorder or ListRecorder(), world=world)
+    return rec, world
+
+
+def test_registry_has_the_three_planners():
+    assert {"inter_llm", "sayplan", "moma_llm"} <= set(names())
+
+
+def test_initial_candidates_are_m_distinct_feasible_plans_and_deterministic():
+    cfg, scene, mission = ExperimentConfig(), tiny_scene(), tiny_mission()
+    a = generate_initial_candidates(scene, mission, FakeScoreClient(), cfg)
+    b = generate_initial_candidates(scene, mission, FakeScoreClient(), cfg)
+    assert a == b and set(a) == {"breakfast", "reading"}
+    assert all(len(v) == cfg.planner.M for v in a.values())
+    assert len({json.dumps(p) for p in a["breakfast"]}) == cfg.planner.M
+    cfg0 = ExperimentConfig()
+    cfg0.llm.temperature = 0.0
+    best = generate_initial_candidates(scene, mission, FakeScoreClient(), cfg0)["breakfast"][0]
+    placed = sorted(d["object"] for d in best if d["action"] == "place")
+    assert placed == ["apple_1", "banana_1"] and best[-1]["furniture"] == "dining_table_1"
+
+
+@pytest.mark.parametrize("name", ["inter_llm", "sayplan", "moma_llm"])
+def test_each_planner_runs_a_mission_end_to_end(name):
+    cfg = ExperimentConfig()
+    cfg.llm.temperature = 0.0
+    recorder = ListRecorder()
+    rec, world = run(name, cfg, recorder=recorder)
+    assert rec["planner"] == name and rec["mission_id"] == "m000" and rec["scene_id"] == "tiny"
+    assert [c["command_id"] for c in rec["commands"]] == ["breakfast", "reading"]
+    c1 = rec["commands"][0]
+    assert c1["final_locations"] == {"apple_1": "dining_table_1", "banana_1": "dining_table_1"}
+    assert c1["goal"]["n_objects"] == 2 and c1["summary"]["command_id"] == "breakfast"
+    assert rec["sim_time"] == pytest.approx(world.clock) and world.clock > 0
+    times = [a["t_start"] for c in rec["commands"] for a in c["actions"]]
+    assert times == sorted(times)
+    json.dumps(rec)
+    topics = {e[0] for e in recorder.events}
+    assert {"/planner/candidates", "/planner/feasibility", "/planner/selected"} <= topics
+    assert len(recorder.actions) == sum(len(c["actions"]) for c in rec["commands"])
+    # the second command does not take back objects delivered by the first
+    assert not ({"apple_1", "banana_1"} & set(rec["commands"][1]["final_locations"]))
+
+
+def test_runs_are_deterministic():
+    a, _ = run("inter_llm")
+    b, _ = run("inter_llm")
+    assert json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+
+
+def test_inter_llm_selects_the_cheapest_candidate_and_estimates():
+    scene, mission = tiny_scene(), tiny_mission()
+    far = [Action("navigate", "desk_1", room="living_room_1"), Action("pickup", "desk_1", obj="mug_1"),
+           Action("navigate", "dining_table_1", room="kitchen_1"), Action("place", "dining_table_1", obj="mug_1")]
+    near = [Action("navigate", "counter_1", room="kitchen_1"), Action("pickup", "counter_1", obj="apple_1"),
+            Action("navigate", "dining_table_1", room="kitchen_1"),
+            Action("place", "dining_table_1", obj="apple_1")]
+    cands = generate_initial_candidates(scene, mission, FakeScoreClient(), ExperimentConfig())
+    cands["breakfast"] = [plan_to_list(tuple(far)), plan_to_list(tuple(near))]
+    recorder = ListRecorder()
+    rec, _ = run("inter_llm", cands=cands, recorder=recorder)
+    s1 = rec["commands"][0]["summary"]
+    assert s1["selected_plan"] == plan_to_list(tuple(near))
+    assert len(s1["estimated_costs"]) == 2 and s1["estimated_costs"][1] < s1["estimated_costs"][0]
+    assert any(e[0] == "/planner/estimates" for e in recorder.events)
+    # second command: re-proposed with the known costs -> LLM cost inferences for manipulations
+    s2 = rec["commands"][1]["summary"]
+    assert s2["cost_inferences"] and all(ci["predicted"] in ("easy", "medium", "hard", "unknown")
+                                         for ci in s2["cost_inferences"])
+    assert len(s2["estimated_costs"]) == len(s2["candidates"]) >= 1
+
+
+def test_regeneration_bound_with_an_always_infeasible_llm():
+    cfg = cfg_for(max_regenerations=2)
+    cfg.llm.proposal_mode = "generate"
+    bad = {"actions": [{"action": "pickup", "furniture": "counter_1", "room": "", "object": "pear_9"}]}
+    client = ScriptedClient(bad)
+    scene, mission = tiny_scene(), tiny_mission()
+    cands = generate_initial_candidates(scene, mission, client, cfg)
+    n_initial = len(client.requests)
+    assert n_initial == cfg.planner.M * len(mission.commands)
+    rec, world = run("inter_llm", cfg, client=client, cands=cands)
+    s = rec["commands"][0]["summary"]
+    assert s["dropped_candidates"] == cfg.planner.M
+    assert s["regenerations"] == cfg.planner.M * 2
+    regen = [r for r in client.requests[n_initial:] if r.purpose == "regeneration"]
+    assert len(regen) >= cfg.planner.M * 2
+    assert "pear_9" in regen[0].messages[0].content and "not in the scene graph" in regen[0].messages[0].content
+    assert rec["commands"][0]["actions"] == [] and s["candidates"] == []
+
+
+def test_sayplan_open_loop_vs_moma_replanning_after_a_failure():
+    cfg = ExperimentConfig()
+    cfg.llm.temperature = 0.0
+    say, _ = run("sayplan", cfg, hard=("apple_1",))
+    moma, _ = run("moma_llm", cfg, hard=("apple_1",))
+    s_say, s_moma = say["commands"][0], moma["commands"][0]
+    assert s_say["summary"]["replans"] == 0
+    assert s_say["final_locations"] == {"banana_1": "dining_table_1"}
+    assert s_moma["summary"]["replans"] == 1
+    delivered = [o for o, f in s_moma["final_locations"].items() if f == "dining_table_1"]
+    assert len(delivered) == 2 and "apple_1" not in delivered
+    failed = [a for a in s_moma["actions"] if not a["success"]]
+    assert [a["action"]["object"] for a in failed] == ["apple_1"]
+
+
+def test_blocked_navigation_is_skipped_and_recorded():
+    cfg = ExperimentConfig()
+    cfg.llm.temperature = 0.0
+    rec, world = run("sayplan", cfg, blocked=("counter_1",))
+    c1 = rec["commands"][0]
+    nav = [a for a in c1["actions"] if a["kind"] == "navigate" and not a["success"]]
+    assert nav and nav[0]["collisions"] == 1
+    assert any("skipping the rest" in n for n in c1["summary"]["notes"])
+    assert world.state.holding is None
+
+
+def test_unknown_planner_and_missing_candidates_raise():
+    scene, mission = tiny_scene(), tiny_mission()
+    with pytest.raises(KeyError, match="registered planners"):
+        run_mission("greedy", scene, mission, {"breakfast": [], "reading": []}, FakeScoreClient(),
+                    ExperimentConfig(), world=SymbolicWorld(scene, ExperimentConfig().sim))
+    with pytest.raises(ValueError, match="candidates stage"):
+        run_mission("sayplan", scene, mission, {"breakfast": []}, FakeScoreClient(), ExperimentConfig(),
+                    world=SymbolicWorld(scene, ExperimentConfig().sim))
