@@ -156,7 +156,7 @@ def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_
                out_dir: Path, temperature_results: Iterable[tuple[str, Path]] = (),
                m_results: Iterable[tuple[str, Path]] = ()) -> None:
     """The report; ablation results are (label, metrics_dir) pairs, gathered where they exist."""
-    from interllm.metrics import build_report
+    from interllm.metrics.report import build_report
 
     build_report(Path(metrics_dir), Path(scenes_dir), Path(runs_dir), Path(out_dir), cfg,
                  temperature_results=list(temperature_results), m_results=list(m_results))

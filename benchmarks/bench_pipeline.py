@@ -1,0 +1,66 @@
+"""Wall time of an experiment cold (empty LLM cache) and warm (full cache), same config.
+
+    .venv/bin/python benchmarks/bench_pipeline.py                    # the default experiment (paper)
+    .venv/bin/python benchmarks/bench_pipeline.py experiment=quick   # any Hydra overrides
+
+Runs every stage (scenes, candidates, missions, aggregate, report) in a temporary folder twice:
+first with an empty LLM cache (every answer comes from the model), then again from the cache the
+first run filled. Prints per-stage wall times, the warm/cold ratio, and whether metrics.json is
+byte-identical across the two runs (it must be).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from omegaconf import OmegaConf  # noqa: E402
+
+from interllm import experiment as ex  # noqa: E402
+from pipeline._hydra import compose  # noqa: E402
+
+
+def run_once(cfg, data: Path) -> dict[str, float]:
+    t = {}
+    s = time.perf_counter()
+    ex.run_scenes(cfg, data / "scenes")
+    t["scenes"] = time.perf_counter() - s
+    s = time.perf_counter()
+    ex.run_candidates(cfg, data / "scenes", data / "candidates")
+    t["candidates"] = time.perf_counter() - s
+    s = time.perf_counter()
+    ex.run_missions(cfg, data / "scenes", data / "candidates", data / "runs")
+    t["missions"] = time.perf_counter() - s
+    s = time.perf_counter()
+    ex.run_aggregate(cfg, data / "runs", data / "scenes", data / "metrics")
+    t["aggregate"] = time.perf_counter() - s
+    s = time.perf_counter()
+    ex.run_report(cfg, data / "metrics", data / "scenes", data / "runs", data / "report")
+    t["report"] = time.perf_counter() - s
+    t["total"] = sum(t.values())
+    return t
+
+
+def main(argv: list[str]) -> None:
+    cfg = OmegaConf.to_object(compose(argv))
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        cfg.llm.cache_dir = str(tmp / "llm_cache")
+        cold = run_once(cfg, tmp / "cold")
+        warm = run_once(cfg, tmp / "warm")
+        same = (tmp / "cold/metrics/metrics.json").read_bytes() == (tmp / "warm/metrics/metrics.json").read_bytes()
+        n_cache = sum(1 for _ in (tmp / "llm_cache").rglob("*.json"))
+    print(f"experiment={cfg.experiment}  scenes={cfg.scene.n_scenes}  missions/scene={cfg.mission.n_missions}"
+          f"  planners={cfg.planner.names}  LLM cache entries={n_cache}")
+    print(f"{'stage':<12}{'cold [s]':>12}{'warm [s]':>12}{'warm/cold':>12}")
+    for k in cold:
+        print(f"{k:<12}{cold[k]:>12.1f}{warm[k]:>12.1f}{warm[k] / max(cold[k], 1e-9):>12.2f}")
+    print(f"metrics.json byte-identical cold vs warm: {same}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -1,0 +1,122 @@
+"""Content-addressed LLM response cache.
+
+The key is the sha256 of a canonical JSON of the full request (backend, model sha256 or Ollama
+digest, messages or prompt, schema, options incl. sample_index, template hash, kind, continuations,
+calibration prompt). Entries live at ``<cache_dir>/<key[:2]>/<key>.json`` and hold the request
+summary, the response and a sha256 checksum of the canonical response JSON. They contain no
+timestamps and no latencies, so they are byte-stable and small enough to commit to git.
+
+Modes: ``readwrite`` (default: hit -> stored response, miss -> backend then store), ``replay``
+(a miss raises :class:`CacheMissError`), ``off`` (neither read nor written).
+
+Writes are atomic (temp file in the same folder + ``os.replace``), so several processes writing
+at once lose nothing. A corrupt entry (bad JSON, wrong layout, checksum mismatch) is reported
+with ``logging.warning``, treated as a miss and overwritten by the next store.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+from pathlib import Path
+from typing import Any, Optional
+
+from interllm.config import CACHE_MODES
+from interllm.io import atomic_write_text
+
+log = logging.getLogger(__name__)
+
+CACHE_FORMAT = 1  # bump when the entry layout or the key recipe changes
+
+
+class CacheMissError(RuntimeError):
+    """Replay mode found no entry for a request."""
+
+
+class CacheCorruptError(ValueError):
+    """An entry failed to parse or its checksum does not match."""
+
+
+def canonical_json(obj: Any) -> str:
+    """Canonical compact JSON used for keys and checksums (sorted keys, no NaN)."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+
+
+def cache_key(payload: dict) -> str:
+    """sha256 hex of the canonical JSON of ``payload`` (plus the cache format version)."""
+    body = canonical_json({"cache_format": CACHE_FORMAT, "request": payload})
+    return hashlib.sha256(body.encode("utf-8")).hexdigest()
+
+
+def response_checksum(response: dict) -> str:
+    return hashlib.sha256(canonical_json(response).encode("utf-8")).hexdigest()
+
+
+class ResponseCache:
+    """cache_dir: folder of entries; mode: one of ``readwrite|replay|off``."""
+
+    def __init__(self, cache_dir: str | os.PathLike, mode: str = "readwrite") -> None:
+        if mode not in CACHE_MODES:
+            raise ValueError(f"config key 'llm.cache_mode': {mode!r} is not valid; "
+                             f"choose one of {list(CACHE_MODES)}")
+        self.dir = Path(cache_dir)
+        self.mode = mode
+        self.hits = 0
+        self.misses = 0
+        self.corrupt = 0
+
+    def path_for(self, key: str) -> Path:
+        return self.dir / key[:2] / f"{key}.json"
+
+    def _read(self, key: str) -> Optional[dict]:
+        path = self.path_for(key)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return None
+        try:
+            entry = json.loads(text)
+            if not isinstance(entry, dict) or entry.get("key") != key:
+                raise CacheCorruptError("entry key does not match its file name")
+            resp = entry["response"]
+            if response_checksum(resp) != entry["checksum"]:
+                raise CacheCorruptError("response checksum mismatch")
+            return resp
+        except (ValueError, KeyError, TypeError) as e:
+            self.corrupt += 1
+            log.warning("LLM cache entry %s is corrupt (%s); treating it as a miss and "
+                        "overwriting it", path, e)
+            return None
+
+    def get(self, key: str, purpose: str = "", describe: str = "") -> Optional[dict]:
+        """Stored response dict for ``key`` or ``None`` on a miss.
+
+        In replay mode a miss raises :class:`CacheMissError` naming the purpose and key.
+        """
+        if self.mode == "off":
+            return None
+        resp = self._read(key)
+        if resp is not None:
+            self.hits += 1
+            return resp
+        self.misses += 1
+        if self.mode == "replay":
+            raise CacheMissError(
+                f"LLM cache miss in replay mode: purpose={purpose!r} key={key} "
+                f"({self.path_for(key)} is absent or corrupt){': ' + describe if describe else ''}. "
+                f"Fill the cache by rerunning with llm.cache_mode=readwrite (needs the model/backend), "
+                f"or restore {self.dir} from git/DVC.")
+        return None
+
+    def put(self, key: str, request_summary: dict, response: dict) -> Optional[Path]:
+        """Store an entry atomically (no-op unless mode is ``readwrite``)."""
+        if self.mode != "readwrite":
+            return None
+        entry = {"cache_format": CACHE_FORMAT, "key": key, "request": request_summary,
+                 "response": response, "checksum": response_checksum(response)}
+        text = json.dumps(entry, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n"
+        path = self.path_for(key)
+        atomic_write_text(path, text)
+        return path

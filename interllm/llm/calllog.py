@@ -1,0 +1,89 @@
+"""Call log: one JSON line per LLM call, flushed per line so a crash leaves it readable.
+
+Records carry the labels of the call (stage, planner, scene, mission, command), its purpose and
+kind, token counts, wall latency [s], whether the cache answered, the backend's KV prefix reuse
+and any repaired errors. An optional ``callback(record)`` receives the same dict (the MCAP
+recorder uses it). The log is diagnostic output: latency is wall time and never enters a result.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Optional
+
+LABEL_KEYS = ("stage", "planner", "scene", "mission", "command")
+
+
+class CallLog:
+    """Append-only JSONL call log.
+
+    path: JSONL file (parent folders are created); ``None`` keeps no file (callback only).
+    callback: called with each record dict after it is written.
+    """
+
+    def __init__(self, path: Optional[str | os.PathLike] = None,
+                 callback: Optional[Callable[[dict], Any]] = None) -> None:
+        self.path = Path(path) if path is not None else None
+        self.callback = callback
+        self._lock = threading.Lock()
+        self._fh = None
+        self.n_records = 0
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            # line-buffered append: each record reaches the OS as one write of one line
+            self._fh = open(self.path, "a", encoding="utf-8", buffering=1)
+
+    def write(self, record: dict) -> None:
+        """Append one record (a JSON-serialisable dict) as one line and flush it."""
+        line = json.dumps(record, sort_keys=True, ensure_ascii=False, default=str) + "\n"
+        with self._lock:
+            if self._fh is not None:
+                self._fh.write(line)
+                self._fh.flush()
+            self.n_records += 1
+        if self.callback is not None:
+            self.callback(record)
+
+    def close(self) -> None:
+        with self._lock:
+            if self._fh is not None:
+                self._fh.close()
+                self._fh = None
+
+    def __enter__(self) -> CallLog:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def make_record(*, kind: str, purpose: str, context: tuple[tuple[str, str], ...], backend: str,
+                model: str, key: str, tokens_in: int, tokens_out: int, latency: float,
+                cached: bool, prompt_tokens_reused: int = 0, errors: tuple[str, ...] = (),
+                error: Optional[str] = None, sample_index: Optional[int] = None) -> dict:
+    """Build one call-log record; labels from ``context`` become top-level fields.
+
+    latency: wall time of the backend call [s] (0 on a cache hit).
+    """
+    rec: dict[str, Any] = {k: None for k in LABEL_KEYS}
+    extra = {}
+    for k, v in context:
+        if k in LABEL_KEYS:
+            rec[k] = v
+        else:
+            extra[k] = v
+    rec.update({
+        "kind": kind, "purpose": purpose, "backend": backend, "model": model, "key": key,
+        "tokens_in": int(tokens_in), "tokens_out": int(tokens_out), "latency": float(latency),
+        "cache_hit": bool(cached), "prompt_tokens_reused": int(prompt_tokens_reused),
+        "errors": list(errors), "error": error,
+    })
+    if sample_index is not None:
+        rec["sample_index"] = int(sample_index)
+    if extra:
+        rec["labels"] = extra
+    return rec

@@ -1,0 +1,139 @@
+"""Ollama backend: the official ``ollama`` Python client against ``cfg.host``.
+
+Generation: ``chat(model, messages, format=<JSON schema>, options={temperature, seed, top_p,
+num_predict, num_ctx})``; the per-call timeout is the HTTP client's (``llm.timeout_s``).
+
+Scoring: Ollama returns log-probs only for tokens it generates (no prompt/echo log-probs), so
+continuation likelihoods cannot be read off. ``score()`` therefore asks the model for a JSON
+object ``{"ratings": [r_1, ..., r_N]}`` with integer ratings 0..10 (temperature 0, seed 0) and
+reports ``ln((r + 1) / 11)`` as the "raw" score (in [-2.4, 0], higher is better; ``method =
+"rating"``). The calibration prompt does not apply to ratings and is ignored (calibration None).
+
+``check()`` runs before an experiment: server down -> :class:`OllamaUnavailable` telling to run
+``ollama serve``; model missing -> telling to run ``ollama pull <model>``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from typing import Any, Optional
+
+from interllm.config import LLMConfig
+from interllm.llm.embedded import Generation, Scores
+from interllm.llm.types import LLMOptions, Message
+
+
+class OllamaUnavailable(RuntimeError):
+    """The Ollama server is unreachable or lacks the model; the message says how to fix it."""
+
+
+def _names(model: str) -> set[str]:
+    return {model, f"{model}:latest"} if ":" not in model else {model}
+
+
+class OllamaBackend:
+    name = "ollama"
+
+    def __init__(self, cfg: LLMConfig) -> None:
+        if not cfg.model:
+            raise ValueError("config key 'llm.model': the ollama backend needs a model name, "
+                             "e.g. llm.model=llama3.2:3b (see `ollama list`)")
+        self.cfg = cfg
+        self._client = None
+        self._digest: Optional[str] = None
+
+    @property
+    def client(self):
+        if self._client is None:
+            import ollama
+
+            self._client = ollama.Client(host=self.cfg.host, timeout=self.cfg.timeout_s)
+        return self._client
+
+    def model_name(self) -> str:
+        return self.cfg.model
+
+    def _down(self, e: Exception) -> OllamaUnavailable:
+        return OllamaUnavailable(f"the Ollama server at {self.cfg.host} (llm.host) is not reachable "
+                                 f"({type(e).__name__}: {e}); start it with `ollama serve`, or use "
+                                 f"llm.backend=embedded")
+
+    def _list(self) -> list[Any]:
+        import httpx
+
+        try:
+            return list(self.client.list().models)
+        except (ConnectionError, httpx.HTTPError, OSError) as e:
+            raise self._down(e) from None
+
+    def check(self) -> str:
+        """Verify server and model; return the model digest."""
+        models = self._list()
+        want = _names(self.cfg.model)
+        for m in models:
+            if m.model in want:
+                self._digest = m.digest or ""
+                return self._digest
+        have = sorted(m.model for m in models)
+        raise OllamaUnavailable(f"model {self.cfg.model!r} (llm.model) is not on the Ollama server at "
+                                f"{self.cfg.host}; run `ollama pull {self.cfg.model}` (available: {have})")
+
+    def model_id(self) -> str:
+        """Ollama model digest (cache-key identity)."""
+        if self._digest is None:
+            self.check()
+        return self._digest or ""
+
+    def _chat(self, messages: list[dict], schema: Optional[dict], options: dict):
+        import httpx
+        import ollama
+
+        try:
+            return self.client.chat(model=self.cfg.model, messages=messages, format=schema,
+                                    options=options, stream=False)
+        except ollama.ResponseError as e:
+            if e.status_code == 404:
+                raise OllamaUnavailable(f"model {self.cfg.model!r} is not on the Ollama server at "
+                                        f"{self.cfg.host}; run `ollama pull {self.cfg.model}`") from None
+            raise
+        except httpx.TimeoutException as e:
+            raise TimeoutError(f"Ollama call exceeded llm.timeout_s={self.cfg.timeout_s} s: {e}") from None
+        except (ConnectionError, httpx.HTTPError) as e:
+            raise self._down(e) from None
+
+    def generate(self, messages: Sequence[Message], schema: Optional[dict], options: LLMOptions,
+                 seed: int) -> Generation:
+        opts = {"temperature": options.temperature, "seed": int(seed), "top_p": options.top_p,
+                "num_predict": options.max_tokens, "num_ctx": self.cfg.n_ctx}
+        r = self._chat([{"role": m.role, "content": m.content} for m in messages], schema, opts)
+        return Generation(text=r.message.content or "", tokens_in=int(r.prompt_eval_count or 0),
+                          tokens_out=int(r.eval_count or 0), truncated=r.done_reason == "length")
+
+    def score(self, prompt: str, continuations: Sequence[str],
+              calibration_prompt: Optional[str] = None) -> Scores:
+        n = len(continuations)
+        if n == 0:
+            raise ValueError("ScoreRequest.continuations is empty; give at least one continuation")
+        schema = {"type": "object", "properties": {"ratings": {
+            "type": "array", "items": {"type": "integer", "minimum": 0, "maximum": 10},
+            "minItems": n, "maxItems": n}}, "required": ["ratings"]}
+        options_text = "\n".join(f"{i + 1}. {c.strip()}" for i, c in enumerate(continuations))
+        content = (f"Text:\n{prompt}\n\nRate how well each option continues the text, from 0 (not at "
+                   f"all) to 10 (perfectly). Options:\n{options_text}\n\nAnswer with JSON "
+                   f'{{"ratings": [...]}} holding exactly {n} integers, in the order of the options.')
+        opts = {"temperature": 0.0, "seed": 0, "top_p": 1.0, "num_predict": 16 + 4 * n,
+                "num_ctx": self.cfg.n_ctx}
+        r = self._chat([{"role": "user", "content": content}], schema, opts)
+        try:
+            ratings = json.loads(r.message.content)["ratings"]
+            if len(ratings) != n:
+                raise ValueError(f"expected {n} ratings, got {len(ratings)}")
+            raw = [math.log((min(10, max(0, int(x))) + 1) / 11.0) for x in ratings]
+        except (ValueError, KeyError, TypeError) as e:
+            raise ValueError(f"Ollama rating answer is malformed ({e}): {r.message.content[:200]!r}") from None
+        return Scores(raw=raw, calibration=None, tokens_in=int(r.prompt_eval_count or 0), method="rating")
+
+    def close(self) -> None:
+        self._client = None

@@ -1,0 +1,195 @@
+"""Response cache: stable keys, sensitivity to every request field, replay misses, concurrent
+writers, corrupt entries, byte-stable entries."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from interllm.config import LLMConfig
+from interllm.llm import (
+    CacheMissError,
+    DeterministicBackend,
+    LLMOptions,
+    LLMRequest,
+    Message,
+    ResponseCache,
+    ScoreRequest,
+    make_client,
+)
+from interllm.llm import prompts as prompts_mod
+
+REPO = Path(__file__).resolve().parents[1]
+SCHEMA = {"type": "object", "properties": {"a": {"type": "integer", "minimum": 0, "maximum": 9}},
+          "required": ["a"]}
+BASE = LLMRequest(purpose="candidates", messages=(Message("system", "s"), Message("user", "u")),
+                  schema=SCHEMA, options=LLMOptions(temperature=0.8, seed=1, top_p=0.9, max_tokens=40,
+                                                    sample_index=0))
+
+KEY_SCRIPT = """
+import sys
+from interllm.config import LLMConfig
+from interllm.llm import make_client, DeterministicBackend, LLMRequest, LLMOptions, Message
+schema = {"type": "object", "properties": {"a": {"type": "integer", "minimum": 0, "maximum": 9}},
+          "required": ["a"]}
+req = LLMRequest(purpose="candidates", messages=(Message("system", "s"), Message("user", "u")),
+                 schema=schema, options=LLMOptions(temperature=0.8, seed=1, top_p=0.9, max_tokens=40))
+c = make_client(LLMConfig(cache_dir=sys.argv[1]), backend=DeterministicBackend())
+print(c.complete_key(req)[0])
+"""
+
+
+def _client(tmp_path, mode="readwrite", backend=None, **kw):
+    cfg = LLMConfig(cache_dir=str(tmp_path / "cache"), cache_mode=mode, **kw)
+    return make_client(cfg, backend=backend or DeterministicBackend())
+
+
+def test_key_is_stable_across_processes(tmp_path):
+    here = _client(tmp_path).complete_key(BASE)[0]
+    outs = {subprocess.run([sys.executable, "-c", KEY_SCRIPT, str(tmp_path / "cache")], cwd=REPO,
+                           capture_output=True, text=True, check=True,
+                           env={"PYTHONHASHSEED": str(i), "PATH": "/usr/bin"}).stdout.strip()
+            for i in (1, 2)}
+    assert outs == {here}
+    assert len(here) == 64 and int(here, 16) >= 0
+
+
+def _variants():
+    o = BASE.options
+    yield "messages.content", dataclasses.replace(BASE, messages=(Message("system", "s"), Message("user", "v")))
+    yield "messages.role", dataclasses.replace(BASE, messages=(Message("user", "s"), Message("user", "u")))
+    yield "messages.count", dataclasses.replace(BASE, messages=BASE.messages[:1])
+    yield "schema", dataclasses.replace(BASE, schema={**SCHEMA, "required": []})
+    yield "no schema", dataclasses.replace(BASE, schema=None)
+    for f, v in (("temperature", 0.7), ("seed", 2), ("top_p", 0.95), ("max_tokens", 41), ("sample_index", 1)):
+        yield f"options.{f}", dataclasses.replace(BASE, options=dataclasses.replace(o, **{f: v}))
+
+
+def test_key_is_sensitive_to_every_field(tmp_path, monkeypatch):
+    c = _client(tmp_path)
+    base = c.complete_key(BASE)[0]
+    keys = {"base": base}
+    for name, req in _variants():
+        keys[name] = c.complete_key(req)[0]
+    # labels and purpose do not change the answer, so they do not change the key
+    assert c.complete_key(dataclasses.replace(BASE, purpose="x", context=(("planner", "p"),)))[0] == base
+    # template: its name and its file hash
+    d = tmp_path / "prompts"
+    d.mkdir()
+    (d / "t.txt").write_text("Hello {name}")
+    monkeypatch.setattr(prompts_mod, "PROMPT_DIR", d)
+    keys["template"] = c.complete_key(dataclasses.replace(BASE, template="t"))[0]
+    (d / "t.txt").write_text("Hello {name}!")
+    keys["template text"] = c.complete_key(dataclasses.replace(BASE, template="t"))[0]
+    # model identity and backend
+    keys["model"] = _client(tmp_path, backend=DeterministicBackend(model="other")).complete_key(BASE)[0]
+    be = DeterministicBackend()
+    be.name = "other-backend"
+    keys["backend"] = _client(tmp_path, backend=be).complete_key(BASE)[0]
+    assert len(set(keys.values())) == len(keys), keys
+    # score keys: kind, prompt, continuations (order too), calibration prompt
+    s = ScoreRequest(purpose="p", prompt="x", continuations=(" a", " b"), calibration_prompt="c")
+    skeys = [c.score_key(r)[0] for r in (
+        s, dataclasses.replace(s, prompt="y"), dataclasses.replace(s, continuations=(" b", " a")),
+        dataclasses.replace(s, continuations=(" a",)), dataclasses.replace(s, calibration_prompt=None),
+        dataclasses.replace(s, calibration_prompt="d"))]
+    assert len(set(skeys) | {base}) == len(skeys) + 1
+
+
+def test_replay_miss_names_purpose_key_and_fix(tmp_path):
+    c = _client(tmp_path, mode="replay")
+    key = c.complete_key(BASE)[0]
+    with pytest.raises(CacheMissError) as e:
+        c.complete(BASE)
+    msg = str(e.value)
+    assert "candidates" in msg and key in msg and "llm.cache_mode=readwrite" in msg
+    # filled in readwrite mode, replay then answers without the backend
+    filled = _client(tmp_path).complete(BASE)
+    be = DeterministicBackend()
+    r = _client(tmp_path, mode="replay", backend=be).complete(BASE)
+    assert r.cached and r.text == filled.text and be.generate_calls == 0
+
+
+def test_off_mode_neither_reads_nor_writes(tmp_path):
+    be = DeterministicBackend()
+    c = _client(tmp_path, mode="off", backend=be)
+    c.complete(BASE)
+    c.complete(BASE)
+    assert be.generate_calls == 2 and not (tmp_path / "cache" / "00").exists()
+    assert not list((tmp_path / "cache").rglob("*.json"))
+
+
+def test_entry_layout_is_byte_stable_and_small(tmp_path):
+    r = _client(tmp_path).complete(BASE)
+    path = tmp_path / "cache" / r.key[:2] / f"{r.key}.json"
+    first = path.read_bytes()
+    entry = json.loads(first)
+    assert set(entry) == {"cache_format", "checksum", "key", "request", "response"}
+    assert "latency" not in first.decode() and entry["response"]["tokens_in"] == r.tokens_in
+    assert list(entry["response"]) == sorted(entry["response"])
+    # a second cache dir filled by another client holds identical bytes
+    r2 = make_client(LLMConfig(cache_dir=str(tmp_path / "cache2")), backend=DeterministicBackend()).complete(BASE)
+    assert (tmp_path / "cache2" / r.key[:2] / f"{r.key}.json").read_bytes() == first and r2.key == r.key
+    assert len(first) < 2000
+
+
+@pytest.mark.parametrize("damage", ["truncate", "checksum", "wrong_key"])
+def test_corrupt_entry_is_a_reported_miss_then_overwritten(tmp_path, caplog, damage):
+    c = _client(tmp_path)
+    r = c.complete(BASE)
+    path = tmp_path / "cache" / r.key[:2] / f"{r.key}.json"
+    good = path.read_bytes()
+    if damage == "truncate":
+        path.write_bytes(good[: len(good) // 2])
+    elif damage == "checksum":
+        e = json.loads(good)
+        e["response"]["text"] = '{"a": 7}' if e["response"]["text"] != '{"a": 7}' else '{"a": 8}'
+        path.write_text(json.dumps(e))
+    else:
+        e = json.loads(good)
+        e["key"] = "0" * 64
+        path.write_text(json.dumps(e))
+    be = DeterministicBackend()
+    c2 = _client(tmp_path, backend=be)
+    with caplog.at_level(logging.WARNING, logger="interllm.llm.cache"):
+        r2 = c2.complete(BASE)
+    assert not r2.cached and be.generate_calls == 1
+    assert any("corrupt" in rec.getMessage() for rec in caplog.records)
+    assert path.read_bytes() == good  # overwritten with the regenerated (deterministic) entry
+    # replay mode never returns a corrupt entry
+    path.write_bytes(b"{not json")
+    with pytest.raises(CacheMissError):
+        _client(tmp_path, mode="replay").complete(BASE)
+
+
+WRITER = """
+import sys
+from interllm.config import LLMConfig
+from interllm.llm import make_client, DeterministicBackend, LLMRequest, LLMOptions, Message
+c = make_client(LLMConfig(cache_dir=sys.argv[1]), backend=DeterministicBackend())
+for i in range(int(sys.argv[2]), int(sys.argv[3])):
+    c.complete(LLMRequest(purpose="w", messages=(Message("user", f"q{i}"),),
+                          schema={"type": "object", "properties": {"n": {"type": "integer"}}, "required": ["n"]},
+                          options=LLMOptions(sample_index=i % 3)))
+print(c.stats.cache_hits)
+"""
+
+
+def test_concurrent_writers_lose_nothing(tmp_path):
+    # process 0 writes q0..q59, process 1 q30..q89: 30 shared keys written by both at once
+    procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path / "cache"), str(a), str(b)], cwd=REPO,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for a, b in ((0, 60), (30, 90))]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    cache = ResponseCache(tmp_path / "cache")
+    entries = list((tmp_path / "cache").glob("??/*.json"))
+    assert len(entries) == 90
+    assert all(cache.get(p.stem) is not None for p in entries) and cache.corrupt == 0
+    assert not list((tmp_path / "cache").rglob("*.tmp"))
