@@ -117,7 +117,7 @@ _WORD = re.compile(r"[a-z]+")
 
 
 def _request_words(prompt: str) -> set[str]:
-    for line in prompt.splitlines():
+    for line in reversed(prompt.splitlines()):  # the last one: few-shot examples come first
         if line.startswith("Request:") or line.startswith("Action:"):
             return set(_WORD.findall(line.lower())) - {"request", "action"}
     return set()
