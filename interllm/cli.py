@@ -19,7 +19,6 @@ from pathlib import Path
 
 def _scene_generate(args) -> int:
     from interllm.scene import generate_scene, render_topdown
-
     from interllm.scene.catalog import CatalogError, scene_config
 
     try:
