@@ -6,6 +6,7 @@
     interllm scene generate --size paper --seed 0 --out my_scene/
     interllm scene validate my_house.json
     interllm scene import-procthor house.json --out my_scene/
+    interllm report --sweeps multirun/                   # report + ablation tables of multiruns
     interllm cache stats [--dir data/llm_cache]
 """
 
@@ -69,6 +70,22 @@ def _scene_import(args) -> int:
     return 0
 
 
+def _report(args) -> int:
+    import yaml
+
+    from interllm.config import from_dict
+    from interllm.experiment import find_sweep_results, run_report
+
+    data = Path(args.data)
+    params = Path(args.params)
+    cfg = from_dict(yaml.safe_load(params.read_text()) or {}) if params.is_file() else None
+    temps, ms = find_sweep_results(*[Path(s) for s in args.sweeps])
+    run_report(cfg, data / "metrics", data / "scenes", data / "runs", Path(args.out),
+               temperature_results=temps, m_results=ms)
+    print(f"wrote {args.out}/report.html with {len(temps)} temperature and {len(ms)} M ablation results")
+    return 0
+
+
 def _cache_stats(args) -> int:
     d = Path(args.dir)
     files = list(d.rglob("*.json")) if d.is_dir() else []
@@ -98,6 +115,11 @@ def main(argv: list[str] | None = None) -> int:
     im = sc.add_parser("import-procthor", help="convert a ProcTHOR house JSON")
     im.add_argument("file")
     im.add_argument("--out", required=True)
+    rp = sub.add_parser("report", help="the report, with the ablation results of Hydra multiruns")
+    rp.add_argument("--data", default="data", help="folder with metrics/, scenes/, runs/")
+    rp.add_argument("--params", default="params.yaml")
+    rp.add_argument("--sweeps", nargs="*", default=["multirun"], help="Hydra multirun folders to gather")
+    rp.add_argument("--out", default="data/report_ablations")
     ca = sub.add_parser("cache", help="LLM response cache tools").add_subparsers(dest="ccmd", required=True)
     st = ca.add_parser("stats")
     st.add_argument("--dir", default="data/llm_cache")
@@ -112,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
                 "import-procthor": _scene_import}[args.scmd](args)
     if args.cmd == "cache":
         return _cache_stats(args)
+    if args.cmd == "report":
+        return _report(args)
     return 2
 
 

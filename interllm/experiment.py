@@ -175,3 +175,27 @@ def run_all(cfg: ExperimentConfig, data_dir: Path, resolved_config: dict | None 
 
 __all__ = ["run_scenes", "run_candidates", "run_missions", "run_aggregate", "run_report", "run_all",
            "scene_ids"]
+
+
+def find_sweep_results(*roots: Path) -> tuple[list[tuple[str, Path]], list[tuple[str, Path]]]:
+    """Ablation results of Hydra multiruns under ``roots``: jobs whose ``.hydra/config.yaml`` says
+    experiment=temperature_ablation or m_ablation and that produced ``data/metrics/metrics.json``.
+
+    Returns (temperature_results, m_results) as (label, metrics_dir) pairs, sorted by value.
+    """
+    import yaml
+
+    temps: list[tuple[float, Path]] = []
+    ms: list[tuple[int, Path]] = []
+    for root in roots:
+        for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
+            job = cfg_file.parent.parent
+            metrics = job / "data" / "metrics"
+            if not (metrics / "metrics.json").is_file():
+                continue
+            c = yaml.safe_load(cfg_file.read_text()) or {}
+            if c.get("experiment") == "temperature_ablation":
+                temps.append((float(c["llm"]["temperature"]), metrics))
+            elif c.get("experiment") == "m_ablation":
+                ms.append((int(c["planner"]["M"]), metrics))
+    return ([(f"{t:.1f}", p) for t, p in sorted(temps)], [(f"M={m}", p) for m, p in sorted(ms)])

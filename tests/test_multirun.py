@@ -1,0 +1,44 @@
+"""Hydra multirun: the same pipeline into separate job folders, and the ablation report gathers them."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_multirun_m_ablation_writes_one_pipeline_per_job_and_the_report_gathers_them(tmp_path):
+    sweep = tmp_path / "multirun"
+    env = {**os.environ, "INTERLLM_PROGRESS": "0"}
+    r = subprocess.run(
+        [sys.executable, "-m", "pipeline.run", "-m", "experiment=m_ablation", "scene=tiny",
+         "mission.n_missions=1", "planner.names=[sayplan]", "planner.M=1,2",
+         f"llm.cache_dir={tmp_path / 'cache'}", f"hydra.sweep.dir={sweep}"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
+    jobs = sorted(p for p in sweep.iterdir() if p.is_dir() and (p / ".hydra").is_dir())
+    assert len(jobs) == 2
+    for job, m in zip(jobs, (1, 2), strict=True):
+        cfg = (job / ".hydra" / "config.yaml").read_text()
+        assert f"M: {m}" in cfg
+        metrics = json.loads((job / "data" / "metrics" / "metrics.json").read_text())
+        assert "sayplan" in metrics["planners"]
+        assert (job / "data" / "runs" / "provenance.json").is_file()
+        cands = json.loads(next((job / "data" / "candidates").glob("*.json")).read_text())
+        assert all(len(c) <= m for mission in cands.values() for c in mission.values())
+
+    from interllm.experiment import find_sweep_results
+
+    temps, ms = find_sweep_results(sweep)
+    assert temps == [] and [label for label, _ in ms] == ["M=1", "M=2"]
+    out = tmp_path / "report"
+    r = subprocess.run([sys.executable, "-m", "interllm.cli", "report", "--data", str(jobs[0] / "data"),
+                        "--params", str(tmp_path / "none.yaml"), "--sweeps", str(sweep), "--out", str(out)],
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    md = (out / "report.md").read_text()
+    assert "M=1" in md and "M=2" in md
