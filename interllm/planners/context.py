@@ -108,6 +108,18 @@ class PlannerContext:
         return self._scores[key]
 
     # ---- feasibility --------------------------------------------------------------------
+    def first_feasible(self, command: Command, proposed: list[Plan], max_rounds: int,
+                       result: CommandResult) -> Optional[Plan]:
+        """The first candidate that passes the feasibility checker within ``max_rounds`` repairs
+        (SayPlan's and MoMa-LLM's selection); logs it on /planner/selected. None if none does."""
+        for j, plan in enumerate(proposed):
+            ok = self.check_and_repair(command, plan, j, max_rounds, result)
+            if ok is not None:
+                result.candidates = [ok]
+                self.event("/planner/selected", command, {"index": j, "plan": plan_to_list(ok)})
+                return ok
+        return None
+
     def check_and_repair(self, command: Command, plan: Plan, index: int, max_rounds: int,
                          result: CommandResult, known: Optional[KnownCosts] = None,
                          exclude_targets: tuple[str, ...] = (),

@@ -30,14 +30,7 @@ class MoMaLLMPlanner:
         proposed = ctx.candidates_for(command)
         ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
                                                    "source": "initial"})
-        selected = None
-        for j, plan in enumerate(proposed):
-            ok = ctx.check_and_repair(command, plan, j, ctx.cfg.planner.max_regenerations, result)
-            if ok is not None:
-                selected = ok
-                result.candidates = [ok]
-                ctx.event("/planner/selected", command, {"index": j, "plan": plan_to_list(ok)})
-                break
+        selected = ctx.first_feasible(command, proposed, ctx.cfg.planner.max_regenerations, result)
         if selected is None:
             result.notes.append("no feasible candidate: nothing executed for this command")
             return finish(ctx, result)

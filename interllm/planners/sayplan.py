@@ -27,14 +27,7 @@ class SayPlanPlanner:
         if not proposed:
             result.notes.append(f"no initial candidates for command {command.id!r}")
             return finish(ctx, result)
-        selected = None
-        for j, plan in enumerate(proposed):
-            ok = ctx.check_and_repair(command, plan, j, ctx.cfg.planner.sayplan_max_iterations, result)
-            if ok is not None:
-                selected = ok
-                result.candidates = [ok]
-                ctx.event("/planner/selected", command, {"index": j, "plan": plan_to_list(ok)})
-                break
+        selected = ctx.first_feasible(command, proposed, ctx.cfg.planner.sayplan_max_iterations, result)
         if selected is None:
             result.notes.append("no feasible candidate: nothing executed for this command")
             return finish(ctx, result)
