@@ -39,7 +39,8 @@ import numpy as np
 
 from interllm.planning.domain import Action, State
 from interllm.sim.build import build_local_spec
-from interllm.sim.results import ActionResult, ManipulationTrial, man_cost
+from interllm.sim.kinematics import GRIP_FRAME
+from interllm.sim.results import ActionResult, ManipulationTrial, ObjectEvent, man_cost
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK, yaw_quat
 from interllm.sim.world import footprint_distance
 
@@ -295,7 +296,7 @@ def _execute_motion(world, pose, q_pre, q_grasp, t0: float, duration: float, at_
             t += duration * (ln / total) / steps
             samples.append(world.sample(t))
         if k == 1:
-            at_grasp()
+            at_grasp(t)
     return samples
 
 
@@ -332,9 +333,12 @@ def execute_pickup(world, action: Action) -> ActionResult:
         return res
     q_pre, q_grasp = sols[k]  # type: ignore[misc]
 
-    def grasp():
+    def grasp(t: float):
         world.attach(action.obj)
         world.state = State(st.at_furniture, st.at_room, action.obj)
+        pos, quat = world.held_offset
+        res.object_events.append(ObjectEvent(t, action.obj, GRIP_FRAME, tuple(float(v) for v in pos),
+                                             (float(quat[1]), float(quat[2]), float(quat[3]), float(quat[0]))))
 
     samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, grasp)
     world.forward()
@@ -410,12 +414,13 @@ def execute_place(world, action: Action) -> ActionResult:
         return res
     q_pre, q_grasp = sols[k]  # type: ignore[misc]
 
-    def release():
+    def release(t: float):
         world.state = State(st.at_furniture, st.at_room, None)
         world.held_offset = None
         pos = (float(spot[0]), float(spot[1]), float(spot[2]))
         world.scene.move_object(action.obj, action.furniture, pos)
         world.set_object_pose(action.obj, pos)
+        res.object_events.append(ObjectEvent(t, action.obj, "world", pos, (0.0, 0.0, 0.0, 1.0)))
 
     samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, release)
     world.forward()

@@ -38,6 +38,22 @@ class ManipulationTrial:
     ik_error: float = 0.0  # [m] final position error
 
 
+@dataclass(frozen=True)
+class ObjectEvent:
+    """An object changing hands during an action, for the logger and replay (not a metric).
+
+    frame "grip": the object is held; position/quaternion are its pose in the gripper site frame.
+    frame "world": the object was released; position/quaternion are its pose in the world.
+    quaternion is (x, y, z, w).
+    """
+
+    t: float  # [s] simulated mission time of the grasp / release
+    object: str
+    frame: str  # "grip" | "world"
+    position: tuple[float, float, float]
+    quaternion: tuple[float, float, float, float]
+
+
 @dataclass
 class ActionResult:
     action: Action
@@ -53,6 +69,7 @@ class ActionResult:
     driven_path: Optional[np.ndarray] = None  # [N, 2] actually driven (navigate)
     reason: str = ""  # failure text an LLM can act on
     trajectory: Optional[Trajectory] = None
+    object_events: list[ObjectEvent] = field(default_factory=list)  # grasps / releases (logging only)
 
     def to_record(self) -> dict:
         """JSON-serialisable record (actions.jsonl, MCAP); paths as lists of [x, y]."""

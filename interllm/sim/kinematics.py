@@ -1,0 +1,162 @@
+"""Forward kinematics of the robot's arm as a tree of link frames, for logging and replay.
+
+``RobotKinematics`` compiles the robot of ``robot.py`` alone (fixed base, the six arm joints) and
+reads the kinematic tree out of the compiled MjModel: every robot body is a frame named after it
+without the ``robot/`` prefix (the base body is ``base_link``), plus ``grip`` for the gripper site.
+A link's pose relative to its parent depends only on its own joint angle, so
+
+    T_parent->child(q) = (body_pos, body_quat ⊗ axis_angle(jnt_axis, q))
+
+when the hinge passes through the body origin (``jnt_pos == 0``, true for this robot and checked
+at construction). ``link_transforms`` evaluates that for many samples at once with numpy, which is
+what the MCAP recorder needs (``/tf``: world->base_link from the base pose, then this chain).
+``visuals`` lists the robot's geoms per frame (Foxglove SceneUpdate primitives and rerun boxes /
+capsules / cylinders), so the logged robot looks like the simulated one.
+
+Quaternions here are (x, y, z, w), the order Foxglove and rerun use; MuJoCo's are (w, x, y, z).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import mujoco
+import numpy as np
+
+from interllm.config import SimConfig
+from interllm.sim.robot import ARM_JOINTS, GRIP_SITE, PREFIX, add_robot, add_robot_assets
+
+BASE_FRAME = "base_link"
+GRIP_FRAME = "grip"
+
+_GEOM_KIND = {int(mujoco.mjtGeom.mjGEOM_BOX): "box", int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
+              int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule", int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere"}
+
+
+def frame_name(body_name: str) -> str:
+    """MuJoCo robot body name -> frame id ("robot/base" -> "base_link", "robot/hand" -> "hand")."""
+    return BASE_FRAME if body_name == PREFIX + "base" else body_name.removeprefix(PREFIX)
+
+
+def quat_mul_xyzw(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of (..., 4) quaternions in (x, y, z, w) order."""
+    ax, ay, az, aw = np.moveaxis(np.asarray(a, dtype=float), -1, 0)
+    bx, by, bz, bw = np.moveaxis(np.asarray(b, dtype=float), -1, 0)
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw,
+                     aw * bw - ax * bx - ay * by - az * bz], axis=-1)
+
+
+def _wxyz_to_xyzw(q) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    return np.array([q[1], q[2], q[3], q[0]])
+
+
+@dataclass(frozen=True)
+class LinkVisual:
+    """One robot geom drawn in a link frame. size: box half extents (3); cylinder / capsule
+    (radius, half length) along the local z axis; sphere (radius,). pos [m], quat (x, y, z, w)."""
+
+    frame: str
+    name: str
+    kind: str  # "box" | "cylinder" | "capsule" | "sphere"
+    size: tuple[float, ...]
+    pos: tuple[float, float, float]
+    quat: tuple[float, float, float, float]
+    rgba: tuple[float, float, float, float]
+
+
+class RobotKinematics:
+    """The arm's frame tree (parent frame, child frame, joint) and its forward kinematics.
+
+    ``chain``: [(parent, child)] in tree order, base_link first as a parent (never a child);
+    ``joint_names``: the arm joints (ARM_JOINTS order) that ``link_transforms`` takes.
+    """
+
+    def __init__(self, sim_cfg: Optional[SimConfig] = None) -> None:
+        spec = mujoco.MjSpec()
+        add_robot_assets(spec)
+        add_robot(spec.worldbody, sim_cfg or SimConfig(), mobile=False)
+        self.model = m = spec.compile()
+        self.joint_names = ARM_JOINTS
+        qadr = {n: int(m.jnt_qposadr[m.joint(n).id]) for n in ARM_JOINTS}
+        base_id = m.body(PREFIX + "base").id
+        self.chain: list[tuple[str, str]] = []
+        pos, quat, axis, col = [], [], [], []
+        for b in range(base_id + 1, m.nbody):  # bodies are numbered in tree order
+            parent = int(m.body_parentid[b])
+            self.chain.append((frame_name(m.body(parent).name), frame_name(m.body(b).name)))
+            pos.append(m.body_pos[b].copy())
+            quat.append(_wxyz_to_xyzw(m.body_quat[b]))
+            nj = int(m.body_jntnum[b])
+            if nj > 1:
+                raise ValueError(f"body {m.body(b).name} has {nj} joints; RobotKinematics supports one hinge "
+                                 "per link")
+            if nj == 1:
+                j = int(m.body_jntadr[b])
+                if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE or np.any(m.jnt_pos[j] != 0):
+                    raise ValueError(f"joint {m.joint(j).name}: RobotKinematics needs hinges through the "
+                                     "body origin (jnt_pos = 0)")
+                axis.append(m.jnt_axis[j].copy())
+                col.append(ARM_JOINTS.index(m.joint(j).name) if m.joint(j).name in qadr else -1)
+            else:
+                axis.append(np.zeros(3))
+                col.append(-1)
+        site = m.site(GRIP_SITE)
+        self.chain.append((frame_name(m.body(int(m.site_bodyid[site.id])).name), GRIP_FRAME))
+        pos.append(m.site_pos[site.id].copy())
+        quat.append(_wxyz_to_xyzw(m.site_quat[site.id]))
+        axis.append(np.zeros(3))
+        col.append(-1)
+        self._pos = np.asarray(pos, dtype=float)  # [L, 3]
+        self._quat = np.asarray(quat, dtype=float)  # [L, 4] xyzw
+        self._axis = np.asarray(axis, dtype=float)  # [L, 3]
+        self._col = np.asarray(col, dtype=int)  # [L] joint column or -1 (fixed)
+        self.frames = tuple(c for _, c in self.chain)
+        self._base_id = base_id
+
+    def link_poses(self, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Relative link poses for joint samples [N, 6] (or one sample [6]) [rad].
+
+        Returns (translations [N, L, 3] [m], quaternions [N, L, 4] xyzw), L = len(chain), each the
+        pose of ``chain[l][1]`` in ``chain[l][0]``.
+        """
+        q = np.asarray(joints, dtype=float)
+        one = q.ndim == 1
+        q = q.reshape(-1, len(ARM_JOINTS))
+        n, nl = len(q), len(self.chain)
+        ang = np.where(self._col >= 0, q[:, np.clip(self._col, 0, None)], 0.0)  # [N, L]
+        half = ang / 2.0
+        rot = np.concatenate([self._axis[None] * np.sin(half)[..., None], np.cos(half)[..., None]], axis=-1)
+        quat = quat_mul_xyzw(np.broadcast_to(self._quat, (n, nl, 4)), rot)
+        trans = np.broadcast_to(self._pos, (n, nl, 3)).copy()
+        return (trans[0], quat[0]) if one else (trans, quat)
+
+    def link_transforms(self, joints) -> list[tuple[str, str, tuple, tuple]]:
+        """[(parent, child, (x, y, z), (qx, qy, qz, qw))] for one joint sample (the recorder's ``fk``)."""
+        t, q = self.link_poses(np.asarray(joints, dtype=float).reshape(-1))
+        return [(p, c, tuple(t[i].tolist()), tuple(q[i].tolist())) for i, (p, c) in enumerate(self.chain)]
+
+    def visuals(self) -> list[LinkVisual]:
+        """Every visible robot geom as a LinkVisual in its body's frame (tree order)."""
+        m = self.model
+        out = []
+        for g in range(m.ngeom):
+            b = int(m.geom_bodyid[g])
+            kind = _GEOM_KIND.get(int(m.geom_type[g]))
+            if b < self._base_id or kind is None or m.geom_rgba[g][3] <= 0:
+                continue
+            sz = m.geom_size[g]
+            size = {"box": tuple(sz[:3]), "cylinder": tuple(sz[:2]), "capsule": tuple(sz[:2]),
+                    "sphere": (sz[0],)}[kind]
+            out.append(LinkVisual(frame=frame_name(m.body(b).name), name=m.geom(g).name or f"geom_{g}",
+                                  kind=kind, size=tuple(float(v) for v in size),
+                                  pos=tuple(float(v) for v in m.geom_pos[g]),
+                                  quat=tuple(float(v) for v in _wxyz_to_xyzw(m.geom_quat[g])),
+                                  rgba=tuple(float(v) for v in m.geom_rgba[g])))
+        return out
+
+
+__all__ = ["BASE_FRAME", "GRIP_FRAME", "LinkVisual", "RobotKinematics", "frame_name", "quat_mul_xyzw"]
