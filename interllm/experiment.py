@@ -117,12 +117,14 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     from interllm.planners.runner import run_mission
     from interllm.record import McapRecorder
     from interllm.scene.grid import rasterize
+    from interllm.sim.kinematics import RobotKinematics
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     prov = provenance(cfg, resolved_config)
     write_json(out_dir / "provenance.json", prov)
     client = _client(cfg, out_dir / "llm_calls.jsonl", "missions")
+    robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
     try:
         jobs = []
         for sid in scene_ids(scenes_dir):
@@ -138,7 +140,7 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
                      "true": rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, "true")}
             meta = {"planner": planner, "scene": sid, "mission": mission.id, **prov}
             c = client.with_context(planner=planner, scene=sid, mission=mission.id)
-            with McapRecorder(d / f"{mission.id}.mcap", scene, meta, grids=grids) as rec:
+            with McapRecorder(d / f"{mission.id}.mcap", scene, meta, grids=grids, robot=robot) as rec:
                 record = run_mission(planner, scene, mission, cands, c, cfg, rec)
             write_json(d / f"{mission.id}.json", record)
     finally:

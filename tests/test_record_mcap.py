@@ -210,25 +210,56 @@ def test_bad_input_errors(tmp_path):
         read_run(tmp_path / "junk.mcap")
 
 
-def test_fk_links_in_tf_and_nonfinite_joints(tmp_path):
-    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+@pytest.mark.parametrize("chunk_size", [1024, 256 * 1024])
+def test_batch_message_path_writes_the_same_bytes_as_add_message(chunk_size):
+    """The recorder's fast path (_BatchWriter.add_messages) against mcap's own add_message."""
+    import io
 
-    def fk(base, joints):  # a 1-link "arm": shoulder frame 0.3 m above the base, z-rotation by joint 0
-        return [("base_link", "shoulder_link", (0.0, 0.0, 0.3), (0.0, 0.0, math.sin(joints[0] / 2),
-                                                                 math.cos(joints[0] / 2)))]
+    from mcap.writer import CompressionType, Writer
 
-    r, ctx = make_actions(1, 5)[0]
-    r.trajectory.joints[2, 1] = float("nan")
-    path = tmp_path / "fk.mcap"
-    with McapRecorder(path, make_scene(), {}, fk=fk) as rec:
-        rec.action(r, ctx)
+    from interllm.record.mcap_writer import _BatchWriter
+
+    rng = np.random.default_rng(0)
+    rows = [(1 + int(rng.integers(0, 2)), int(t), rng.bytes(int(rng.integers(0, 300))), k)
+            for k, t in enumerate(np.sort(rng.integers(0, 10**9, 500)))]
+    rows[7] = (rows[7][0], rows[3][1], rows[7][2], rows[7][3])  # an out-of-order time
+    out = []
+    for batch in (False, True):
+        f = io.BytesIO()
+        w = _BatchWriter(f, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        assert isinstance(w, Writer)
+        w.start(profile="", library="test")
+        sid = w.register_schema("s", "jsonschema", b"{}")
+        for topic in ("/a", "/b"):
+            w.register_channel(topic, "json", sid)
+        if batch:
+            w.add_messages(rows[:250])
+            w.flush()
+            w.add_messages(rows[250:])
+        else:
+            for i, (ch, t, data, seq) in enumerate(rows):
+                if i == 250:
+                    w.flush()
+                w.add_message(channel_id=ch, log_time=t, data=data, publish_time=t, sequence=seq)
+        w.finish()
+        out.append(f.getvalue())
+    assert out[0] == out[1]
+    got = [(ch.id, m.log_time, m.data, m.sequence)
+           for _, ch, m in make_reader(io.BytesIO(out[1])).iter_messages(log_time_order=False)]
+    assert got == rows
+
+
+def test_joint_states_are_canonical_json_with_the_base_pose(run_file):
+    """The hand-formatted fast path gives exactly json.dumps(sort_keys=True) of the sample."""
+    from interllm.record.mcap_writer import JOINT_STATES_SCHEMA, dumps
+
+    path, acts, _ = run_file
     msgs, _ = _raw(path)
-    tfs = [FrameTransforms.FromString(m.data) for t, _, m in msgs if t == "/tf"]
-    assert [len(m.transforms) for m in tfs] == [2] * 5
-    sh = tfs[1].transforms[1]
-    assert (sh.parent_frame_id, sh.child_frame_id, sh.translation.z) == ("base_link", "shoulder_link", 0.3)
-    assert math.isclose(2 * math.atan2(sh.rotation.z, sh.rotation.w), r.trajectory.joints[1, 0])
-    run = read_run(path)
-    got = run.actions[0].trajectory
-    np.testing.assert_allclose(got.base, r.trajectory.base, atol=1e-12)
-    np.testing.assert_array_equal(got.joints, r.trajectory.joints)  # NaN compares equal here
+    js = [m.data for t, _, m in msgs if t == "/joint_states"]
+    samples = [(k, b, j) for k, (r, _) in enumerate(acts)
+               for b, j in zip(r.trajectory.base.tolist(), r.trajectory.joints.tolist(), strict=True)]
+    assert len(js) == len(samples)
+    for data, (k, b, j) in zip(js, samples, strict=True):
+        want = {"action": k, "base": b, "names": list(JOINTS), "positions": j}
+        assert data == dumps(want).encode()
+        jsonschema.validate(json.loads(data), JOINT_STATES_SCHEMA)

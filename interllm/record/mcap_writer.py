@@ -14,12 +14,18 @@ Channels (all times are simulated mission time, ``log_time = publish_time = roun
 clamped to be non-decreasing per channel):
 
 - ``/scene``          foxglove.SceneUpdate at t=0: walls, door leaves, furniture, objects as cubes
+                      and, with a ``robot`` model, the robot's links as primitives locked to their
+                      frames; then one update per grasp (the object re-parented to the ``grip``
+                      frame, so viewers carry it with the hand) and per release (the object at its
+                      new place in the world)
 - ``/grid/<name>``    foxglove.Grid at t=0 per given grid (uint8 "occupancy": 0 free, 100 occupied)
-- ``/tf``             foxglove.FrameTransforms per trajectory sample: world -> base_link from
-                      Trajectory.base; arm links only when an ``fk`` callable is given (there is no
-                      forward kinematics in this package: without ``fk``, arm joint angles are only
-                      on ``/joint_states``)
-- ``/joint_states``   JSON {"names", "positions", "action"} per trajectory sample
+- ``/tf``             foxglove.FrameTransforms at every trajectory sample where something moved:
+                      world -> base_link when the base pose changed, and with a ``robot`` model
+                      (``interllm.sim.kinematics.RobotKinematics``) the arm's link frames
+                      (base_link -> shoulder -> ... -> hand -> grip) when the joints changed; both
+                      at the first sample of every action. A frame keeps its last transform.
+- ``/joint_states``   JSON {"action", "base": [x, y, yaw], "names", "positions"} per trajectory
+                      sample: the exact trajectory (``read_run`` rebuilds Trajectory from it)
 - ``/path/presumed``  foxglove.PosesInFrame at the action start (navigate actions)
 - ``/path/driven``    foxglove.PosesInFrame at the action end (navigate actions)
 - ``/actions``        JSON: ActionResult.to_record() + "context" + "index" + "n_samples" at the
@@ -42,7 +48,8 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Callable, Iterable, Sequence
+import struct
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +61,8 @@ from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
 from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from mcap.opcode import Opcode
+from mcap.records import MessageIndex
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
@@ -85,11 +94,6 @@ LOG_LEVEL_NAMES = {Log.UNKNOWN: "unknown", Log.DEBUG: "debug", Log.INFO: "info",
                    Log.WARNING: "warning", Log.ERROR: "error", Log.FATAL: "fatal"}
 
 COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
-
-# A pose link produced by an optional forward-kinematics callable:
-# (parent_frame, child_frame, (x, y, z) [m], (qx, qy, qz, qw)).
-Link = tuple[str, str, Sequence[float], Sequence[float]]
-FK = Callable[[np.ndarray, np.ndarray], Iterable[Link]]
 
 _NUM = {"type": "number"}
 _PATH = {"oneOf": [{"type": "null"},
@@ -141,8 +145,10 @@ ACTION_SCHEMA: dict[str, Any] = {
 JOINT_STATES_SCHEMA: dict[str, Any] = {
     "title": "interllm.JointStates",
     "type": "object",
-    "required": ["names", "positions"],
-    "properties": {"names": {"type": "array", "items": {"type": "string"}},
+    "required": ["action", "base", "names", "positions"],
+    "properties": {"base": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+                            "description": "base pose x [m], y [m], yaw [rad]"},
+                   "names": {"type": "array", "items": {"type": "string"}},
                    "positions": {"type": "array", "items": {"type": "number"},
                                  "description": "arm joint angles [rad]"},
                    "action": {"type": "integer", "description": "index of the action it belongs to"}},
@@ -225,23 +231,58 @@ def scene_boxes(scene: SceneGraph) -> list[dict[str, Any]]:
     return out
 
 
-def _scene_update(scene: SceneGraph) -> SceneUpdate:
+def _set_pose(pose: Any, xyz: Sequence[float], quat: Sequence[float]) -> None:
+    pose.position.x, pose.position.y, pose.position.z = (float(v) for v in xyz)
+    (pose.orientation.x, pose.orientation.y, pose.orientation.z,
+     pose.orientation.w) = (float(v) for v in quat)
+
+
+def _metadata(e: Any, **kv: str) -> None:
+    for k, v in kv.items():
+        m = e.metadata.add()
+        m.key, m.value = k, str(v)
+
+
+def _object_entity(e: Any, o: Any, frame: str, xyz: Sequence[float], quat: Sequence[float]) -> None:
+    """Fill a SceneEntity with object ``o`` as a cube at (xyz, quat) in ``frame``."""
+    e.frame_id, e.id, e.frame_locked = frame, f"object/{o.id}", True
+    _metadata(e, kind="object", category=o.category)
+    c = e.cubes.add()
+    _set_pose(c.pose, xyz, quat)
+    c.size.x, c.size.y, c.size.z = (float(v) for v in o.size)
+    _set_color(c.color, _COLORS["object"])
+
+
+def _scene_update(scene: SceneGraph, robot_visuals: Sequence[Any] = ()) -> SceneUpdate:
     msg = SceneUpdate()
     for b in scene_boxes(scene):
         e = msg.entities.add()
-        e.frame_id = WORLD_FRAME
-        e.id = f"{b['kind']}/{b['id']}"
-        e.frame_locked = True
-        for k, v in (("kind", b["kind"]), ("category", b.get("category", b["kind"]))):
-            kv = e.metadata.add()
-            kv.key, kv.value = k, v
+        if b["kind"] == "object":
+            _object_entity(e, scene.objects[b["id"]], WORLD_FRAME, b["center"], yaw_quat(b["yaw"]))
+            continue
+        e.frame_id, e.id, e.frame_locked = WORLD_FRAME, f"{b['kind']}/{b['id']}", True
+        _metadata(e, kind=b["kind"], category=b.get("category", b["kind"]))
         c = e.cubes.add()
-        c.pose.position.x, c.pose.position.y, c.pose.position.z = (float(v) for v in b["center"])
-        qx, qy, qz, qw = yaw_quat(b["yaw"])
-        c.pose.orientation.x, c.pose.orientation.y = qx, qy
-        c.pose.orientation.z, c.pose.orientation.w = qz, qw
+        _set_pose(c.pose, b["center"], yaw_quat(b["yaw"]))
         c.size.x, c.size.y, c.size.z = (float(v) for v in b["size"])
         _set_color(c.color, _COLORS[b["kind"]])
+    for v in robot_visuals:  # locked to the link frames that /tf moves
+        e = msg.entities.add()
+        e.frame_id, e.id, e.frame_locked = v.frame, v.name, True
+        _metadata(e, kind="robot", shape=v.kind)
+        if v.kind == "box":
+            p = e.cubes.add()
+            p.size.x, p.size.y, p.size.z = (2 * float(x) for x in v.size)
+        elif v.kind == "sphere":
+            p = e.spheres.add()
+            p.size.x = p.size.y = p.size.z = 2 * float(v.size[0])
+        else:  # cylinder; a capsule is drawn as its cylinder (radius, half length along z)
+            p = e.cylinders.add()
+            p.size.x = p.size.y = 2 * float(v.size[0])
+            p.size.z = 2 * float(v.size[1])
+            p.bottom_scale = p.top_scale = 1.0
+        _set_pose(p.pose, v.pos, v.quat)
+        _set_color(p.color, v.rgba)
     return msg
 
 
@@ -269,13 +310,71 @@ def _poses_message(path: np.ndarray, t_ns: int) -> PosesInFrame:
     msg.frame_id = WORLD_FRAME
     path = np.asarray(path, dtype=float).reshape(-1, 2)
     n = len(path)
-    for i in range(n):
-        j0, j1 = (i, i + 1) if i + 1 < n else (max(i - 1, 0), i)
-        yaw = math.atan2(path[j1, 1] - path[j0, 1], path[j1, 0] - path[j0, 0]) if n > 1 else 0.0
+    if n == 0:
+        return msg
+    # heading of segment i -> i+1 (the last pose keeps the last segment's heading)
+    d = np.diff(path, axis=0) if n > 1 else np.zeros((1, 2))
+    yaw = np.arctan2(d[:, 1], d[:, 0])
+    yaw = np.append(yaw, yaw[-1])[:n] if n > 1 else np.zeros(1)
+    for (x, y), qz, qw in zip(path.tolist(), np.sin(yaw / 2).tolist(), np.cos(yaw / 2).tolist(), strict=True):
         p = msg.poses.add()
-        p.position.x, p.position.y = float(path[i, 0]), float(path[i, 1])
-        _, _, p.orientation.z, p.orientation.w = yaw_quat(yaw)
+        p.position.x, p.position.y = x, y
+        p.orientation.z, p.orientation.w = qz, qw
     return msg
+
+
+_MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # opcode, record length, channel, sequence, log, publish time
+
+
+class _BatchWriter(Writer):
+    """``mcap.writer.Writer`` plus ``add_messages``: many messages in one call, packed with one
+    struct call each instead of the per-field writes of ``add_message`` (3-4x less time per
+    message, the recorder's hot path). The file is byte-identical to calling ``add_message`` for
+    each (tests/test_record_mcap.py checks this); if the mcap package's internals ever change
+    shape, it falls back to ``add_message``."""
+
+    def add_messages(self, rows: Sequence[tuple[int, int, bytes, int]]) -> None:
+        """rows: (channel_id, log_time = publish_time [ns], data, sequence), in file order."""
+        try:
+            stats = self._Writer__statistics  # type: ignore[attr-defined]
+            cb = self._Writer__chunk_builder  # type: ignore[attr-defined]
+            limit = self._Writer__chunk_size  # type: ignore[attr-defined]
+            finalize = self._Writer__maybe_finalize_chunk  # type: ignore[attr-defined]
+            buf = cb.record_writer._buffer
+        except AttributeError:
+            cb = None
+        if cb is None:
+            for ch, t, data, seq in rows:
+                self.add_message(channel_id=ch, log_time=t, data=data, publish_time=t, sequence=seq)
+            return
+        pack, opcode = _MESSAGE_HEADER.pack, int(Opcode.MESSAGE)
+        counts, indices = stats.channel_message_counts, cb.message_indices
+        for ch, t, data, seq in rows:
+            if stats.message_count == 0:
+                stats.message_start_time = t
+            elif t < stats.message_start_time:
+                stats.message_start_time = t
+            if t > stats.message_end_time:
+                stats.message_end_time = t
+            counts[ch] += 1
+            stats.message_count += 1
+            if cb.num_messages == 0:
+                cb.message_start_time = t
+            elif t < cb.message_start_time:
+                cb.message_start_time = t
+            if t > cb.message_end_time:
+                cb.message_end_time = t
+            idx = indices.get(ch)
+            if not idx:
+                idx = indices[ch] = MessageIndex(channel_id=ch, records=[])
+            offset = buf.tell()
+            idx.records.append((t, offset))
+            cb.num_messages += 1
+            buf.write(pack(opcode, 22 + len(data), ch, seq, t, t))
+            buf.write(data)
+            if offset + 31 + len(data) > limit:
+                finalize()  # compresses and writes the chunk; the builder starts a new buffer
+                buf = cb.record_writer._buffer
 
 
 class McapRecorder:
@@ -288,13 +387,15 @@ class McapRecorder:
     grids: occupancy grids by name (``/grid/<name>``), e.g. {"presumed": ..., "true": ...}.
     joint_names: arm joint names for ``/joint_states`` when a Trajectory carries none.
     chunk_size: uncompressed chunk size limit [bytes]; compression: "zstd" | "lz4" | "none".
-    fk: optional forward kinematics ``fk(base_xyyaw[3], joints[n]) -> [(parent, child, xyz, quat)]``
-        adding arm link frames to each ``/tf`` sample.
+    robot: optional robot model (``interllm.sim.kinematics.RobotKinematics`` or anything with
+        ``joint_names``, ``chain`` [(parent, child)], ``link_poses(joints[N, n]) -> (xyz[N, L, 3],
+        quat_xyzw[N, L, 4])`` and ``visuals()``): arm link frames on ``/tf`` and the robot's shape on
+        ``/scene``. Without it ``/tf`` has world -> base_link only.
     """
 
     def __init__(self, path: str | os.PathLike, scene: SceneGraph, metadata: dict[str, Any] | None = None,
                  grids: dict[str, OccupancyGrid] | None = None, joint_names: Sequence[str] = (), *,
-                 chunk_size: int = 256 * 1024, compression: str = "zstd", fk: FK | None = None) -> None:
+                 chunk_size: int = 256 * 1024, compression: str = "zstd", robot: Any = None) -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression {compression!r} is not valid; choose one of {list(COMPRESSIONS)}")
         if chunk_size < 1024:
@@ -302,10 +403,15 @@ class McapRecorder:
         self.path = Path(path)
         self.partial_path = self.path.with_name(self.path.name + ".partial")
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.joint_names = tuple(joint_names)
-        self.fk = fk
+        self.joint_names = tuple(joint_names or (robot.joint_names if robot is not None else ()))
+        self.robot = robot
+        self._scene_id = scene.id
+        self._objects = dict(scene.objects)
+        self._tf_base = FrameTransforms()  # reused for the base-only /tf messages
+        self._tf_base_tr = self._tf_base.transforms.add()
+        self._tf_base_tr.parent_frame_id, self._tf_base_tr.child_frame_id = WORLD_FRAME, BASE_FRAME
         self._file = open(self.partial_path, "wb")
-        self._w = Writer(self._file, chunk_size=chunk_size, compression=COMPRESSIONS[compression])
+        self._w = _BatchWriter(self._file, chunk_size=chunk_size, compression=COMPRESSIONS[compression])
         self._w.start(profile="", library="interllm.record")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
@@ -318,7 +424,7 @@ class McapRecorder:
         self._w.add_metadata("run", {str(k): _meta_str(v) for k, v in sorted((metadata or {}).items())})
         self._w.add_attachment(create_time=0, log_time=0, name="scene.json", media_type="application/json",
                                data=scene.to_json().encode("utf-8"))
-        self._write_proto(SCENE_TOPIC, _scene_update(scene), 0)
+        self._write_proto(SCENE_TOPIC, _scene_update(scene, robot.visuals() if robot is not None else ()), 0)
         for name, grid in sorted((grids or {}).items()):
             self._write_proto(GRID_PREFIX + name, grid_message(grid), 0)
         self._w.flush()
@@ -404,6 +510,7 @@ class McapRecorder:
         if result.presumed_path is not None and len(result.presumed_path):
             self._write_proto(PRESUMED_TOPIC, _poses_message(result.presumed_path, to_ns(t0)), to_ns(t0))
         n = self._write_trajectory(result.trajectory, t0, idx)
+        self._write_object_events(result.object_events)
         if result.driven_path is not None and len(result.driven_path):
             self._write_proto(DRIVEN_TOPIC, _poses_message(result.driven_path, to_ns(t1)), to_ns(t1))
         rec = {**result.to_record(), "context": dict(context or {}), "index": idx, "n_samples": n}
@@ -413,45 +520,107 @@ class McapRecorder:
         self._w.flush()
 
     def _write_trajectory(self, traj: Trajectory | None, t0: float, idx: int) -> int:
+        """One /joint_states message per sample (base pose + arm joints: the exact trajectory) and
+        a /tf message for every sample where something moved: world->base_link when the base pose
+        changed, the arm's link frames when the joints changed (both at an action's first sample).
+        Frame transforms hold until the next one for the same frame, as in Foxglove and rerun."""
         if traj is None or len(traj.t) == 0:
             return 0
         t = np.asarray(traj.t, dtype=float)
         if t[0] + 1e-9 < t0:
             t = t + t0
-        base = np.asarray(traj.base, dtype=float).reshape(len(t), 3)
-        joints = np.asarray(traj.joints, dtype=float).reshape(len(t), -1)
+        n = len(t)
+        if not np.isfinite(t).all() or (t < 0).any():
+            raise ValueError(f"action {idx}: trajectory times must be finite and >= 0 s")
+        base = np.asarray(traj.base, dtype=float).reshape(n, 3)
+        joints = np.asarray(traj.joints, dtype=float).reshape(n, -1)
         names = list(traj.joint_names or self.joint_names)
-        if joints.shape[1] and len(names) != joints.shape[1]:
+        if len(names) != joints.shape[1]:
             names = names[:joints.shape[1]] + [f"joint_{k}" for k in range(len(names), joints.shape[1])]
-        jch = self._channel_json(JOINT_TOPIC, JOINT_STATES_SCHEMA) if joints.shape[1] else 0
-        prefix = f'{{"action": {idx}, "names": {dumps(names)}, "positions": ['
-        finite = np.isfinite(joints).all(axis=1)
-        for i in range(len(t)):
-            t_ns = to_ns(float(t[i]))
-            x, y, yaw = base[i]
-            msg = FrameTransforms()
-            tr = msg.transforms.add()
-            tr.timestamp.FromNanoseconds(t_ns)
-            tr.parent_frame_id, tr.child_frame_id = WORLD_FRAME, BASE_FRAME
-            tr.translation.x, tr.translation.y = float(x), float(y)
-            _, _, tr.rotation.z, tr.rotation.w = yaw_quat(float(yaw))
-            if self.fk is not None:
-                for parent, child, xyz, quat in self.fk(base[i], joints[i]):
-                    lt = msg.transforms.add()
-                    lt.timestamp.FromNanoseconds(t_ns)
-                    lt.parent_frame_id, lt.child_frame_id = parent, child
-                    lt.translation.x, lt.translation.y, lt.translation.z = (float(v) for v in xyz)
-                    (lt.rotation.x, lt.rotation.y, lt.rotation.z,
-                     lt.rotation.w) = (float(v) for v in quat)
-            self._write_proto(TF_TOPIC, msg, t_ns)
-            if joints.shape[1]:
-                row = joints[i].tolist()
-                if finite[i]:  # same bytes as dumps(), ~5x faster
-                    data = f'{prefix}{", ".join(map(repr, row))}]}}'.encode()
-                else:
-                    data = dumps({"names": names, "positions": row, "action": idx}).encode("utf-8")
-                self._add(jch, t_ns, data)
-        return len(t)
+        t_ns = np.round(t * 1e9).astype(np.int64).tolist()
+        base_moved = np.ones(n, dtype=bool)
+        arm_moved = np.ones(n, dtype=bool)
+        base_moved[1:] = (base[1:] != base[:-1]).any(axis=1)
+        arm_moved[1:] = (joints[1:] != joints[:-1]).any(axis=1)
+        links = None
+        if self.robot is not None and joints.shape[1]:
+            if joints.shape[1] != len(self.robot.joint_names):
+                raise ValueError(f"action {idx}: trajectory has {joints.shape[1]} arm joints, the robot model "
+                                 f"{len(self.robot.joint_names)} ({list(self.robot.joint_names)})")
+            rows = np.flatnonzero(arm_moved & np.isfinite(joints).all(axis=1))
+            lt, lq = self.robot.link_poses(joints[rows])
+            links = dict(zip(rows.tolist(), zip(lt.tolist(), lq.tolist(), strict=True), strict=True))
+        jch = self._channel_json(JOINT_TOPIC, JOINT_STATES_SCHEMA)
+        tch = self._channel_proto(TF_TOPIC, self._tf_base)
+        # trajectory times are non-decreasing: clamp once against each channel's last time and
+        # write with the mcap writer directly (this loop is the recorder's hot path)
+        t_ns = np.maximum.accumulate(np.maximum(t_ns, max(self._last_ns.get(jch, 0),
+                                                          self._last_ns.get(tch, 0)))).tolist()
+        rows: list[tuple[int, int, bytes, int]] = []
+        add = rows.append
+        jseq, tseq = self._seq.get(jch, 0), self._seq.get(tch, 0)
+        prefix = f'{{"action": {idx}, "base": ['
+        mid = f'], "names": {dumps(names)}, "positions": ['
+        base_l, joints_l = base.tolist(), joints.tolist()
+        finite = (np.isfinite(joints).all(axis=1) & np.isfinite(base).all(axis=1)).tolist()
+        moved_b, moved_a = base_moved.tolist(), arm_moved.tolist()
+        bstr = jstr = ""
+        for i in range(n):
+            ns = t_ns[i]
+            b = base_l[i]
+            if finite[i]:  # the same bytes as dumps(), ~5x faster; a part that did not move is reused
+                if moved_b[i] or not bstr:
+                    bstr = ", ".join(map(repr, b))
+                if moved_a[i] or not jstr:
+                    jstr = ", ".join(map(repr, joints_l[i]))
+                data = f'{prefix}{bstr}{mid}{jstr}]}}'.encode()
+            else:
+                bstr = jstr = ""
+                data = dumps({"action": idx, "base": b, "names": names, "positions": joints_l[i]}).encode("utf-8")
+            add((jch, ns, data, jseq))
+            jseq += 1
+            link = links.get(i) if links is not None else None
+            if moved_b[i] and link is None:  # the common case (driving): reuse one message
+                tr = self._tf_base_tr
+                tr.timestamp.seconds, tr.timestamp.nanos = divmod(ns, 1_000_000_000)
+                tr.translation.x, tr.translation.y = b[0], b[1]
+                tr.rotation.z, tr.rotation.w = math.sin(b[2] / 2.0), math.cos(b[2] / 2.0)
+                add((tch, ns, self._tf_base.SerializeToString(), tseq))
+                tseq += 1
+            elif moved_b[i] or link is not None:
+                msg = FrameTransforms()
+                if moved_b[i]:
+                    tr = msg.transforms.add()
+                    tr.timestamp.FromNanoseconds(ns)
+                    tr.parent_frame_id, tr.child_frame_id = WORLD_FRAME, BASE_FRAME
+                    tr.translation.x, tr.translation.y = b[0], b[1]
+                    _, _, tr.rotation.z, tr.rotation.w = yaw_quat(b[2])
+                if link is not None:
+                    for (parent, child), xyz, quat in zip(self.robot.chain, *link, strict=True):
+                        lt = msg.transforms.add()
+                        lt.timestamp.FromNanoseconds(ns)
+                        lt.parent_frame_id, lt.child_frame_id = parent, child
+                        lt.translation.x, lt.translation.y, lt.translation.z = xyz
+                        lt.rotation.x, lt.rotation.y, lt.rotation.z, lt.rotation.w = quat
+                add((tch, ns, msg.SerializeToString(), tseq))
+                tseq += 1
+        self._w.add_messages(rows)
+        self._seq[jch], self._seq[tch] = jseq, tseq
+        self._last_ns[jch] = self._last_ns[tch] = t_ns[-1]
+        return n
+
+    def _write_object_events(self, events) -> None:
+        """/scene updates for grasped (drawn in the gripper frame, so it moves with the hand) and
+        released objects (drawn in the world at its new pose)."""
+        for ev in events:
+            o = self._objects.get(ev.object)
+            if o is None:
+                raise ValueError(f"object event for {ev.object!r}, which is not in scene {self._scene_id!r}")
+            msg = SceneUpdate()
+            e = msg.entities.add()
+            e.timestamp.FromNanoseconds(to_ns(ev.t))
+            _object_entity(e, o, ev.frame, ev.position, ev.quaternion)
+            self._write_proto(SCENE_TOPIC, msg, to_ns(ev.t))
 
     # ---- lifecycle ---------------------------------------------------------------------
     def close(self, status: str = "ok", error: str = "") -> Path:

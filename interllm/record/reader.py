@@ -6,15 +6,16 @@ is read with a streaming reader that stops at the last complete chunk; ``RunLog.
 then False and ``RunLog.stopped_at`` says where the readable part ends (byte offset, chunk count
 and the last simulated time).
 
-Trajectory samples (``/tf`` world->base_link and ``/joint_states``) are assigned to actions in
-file order: the recorder writes an action's samples right before its ``/actions`` record.
+Trajectory samples (``/joint_states``: base pose and arm joints, exact) are assigned to actions
+in file order: the recorder writes an action's samples right before its ``/actions`` record.
+``/tf`` is read into per-frame transform series (``RunLog.frames``) and ``/scene`` updates after
+the first into object moves (``RunLog.object_moves``: grasps and releases).
 """
 
 from __future__ import annotations
 
 import io
 import json
-import math
 import os
 from collections import defaultdict
 from collections.abc import Iterator
@@ -27,13 +28,13 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.Grid_pb2 import Grid
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from interllm.record.mcap_writer import (
     ACTIONS_TOPIC,
-    BASE_FRAME,
     DRIVEN_TOPIC,
     GRID_PREFIX,
     JOINT_TOPIC,
@@ -43,11 +44,45 @@ from interllm.record.mcap_writer import (
     PRESUMED_TOPIC,
     SCENE_TOPIC,
     TF_TOPIC,
-    WORLD_FRAME,
 )
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
 from interllm.sim.results import ActionResult, Trajectory
+
+
+@dataclass
+class FrameSeries:
+    """Transforms of one frame in its parent over time, as logged on /tf."""
+
+    parent: str
+    t: np.ndarray  # [K] [s]
+    xyz: np.ndarray  # [K, 3] [m]
+    quat: np.ndarray  # [K, 4] (x, y, z, w)
+
+
+@dataclass(frozen=True)
+class ObjectMove:
+    """A /scene update of one object after t=0: grasped (frame "grip") or released (frame "world")."""
+
+    t: float
+    object: str
+    frame: str
+    position: tuple[float, float, float]
+    quaternion: tuple[float, float, float, float]  # (x, y, z, w)
+    size: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class RobotVisual:
+    """One robot primitive from the first /scene update, drawn locked to a /tf frame."""
+
+    frame: str
+    name: str
+    shape: str  # "cube" | "cylinder" | "sphere"
+    size: tuple[float, float, float]  # full extents [m] (cylinder: diameter, diameter, length)
+    position: tuple[float, float, float]
+    quaternion: tuple[float, float, float, float]  # (x, y, z, w)
+    color: tuple[float, float, float, float]  # rgba 0..1
 
 
 @dataclass
@@ -63,7 +98,7 @@ class RunLog:
     contexts: list[dict[str, Any]]  # context given with each action
     events: dict[str, list[tuple[float, dict]]]  # JSON event topic -> [(t, payload)]
     logs: list[tuple[float, str, str]]  # /log: (t, level, message)
-    base: np.ndarray  # [N, 4] t [s], x [m], y [m], yaw [rad] of every /tf world->base_link sample
+    base: np.ndarray  # [N, 4] t [s], x [m], y [m], yaw [rad] of every trajectory sample
     joint_names: tuple[str, ...]
     joints: np.ndarray  # [N, n_joints] /joint_states positions [rad]
     joint_t: np.ndarray  # [N] their times [s]
@@ -73,6 +108,9 @@ class RunLog:
     complete: bool  # footer and summary present (the writer closed the file)
     stopped_at: str | None = None  # where a truncated file stops being readable
     summary_counts: dict[str, int] = field(default_factory=dict)  # counts from the MCAP summary
+    frames: dict[str, FrameSeries] = field(default_factory=dict)  # /tf by child frame
+    object_moves: list[ObjectMove] = field(default_factory=list)  # /scene updates after t=0
+    robot_visuals: list[RobotVisual] = field(default_factory=list)  # robot links on the first /scene
 
     @property
     def status(self) -> str:
@@ -89,8 +127,18 @@ class RunLog:
         return max(ts)
 
 
-def _yaw(qz: float, qw: float) -> float:
-    return 2.0 * math.atan2(qz, qw)
+def _robot_visuals(msg: SceneUpdate) -> list[RobotVisual]:
+    out = []
+    for e in msg.entities:
+        if {m.key: m.value for m in e.metadata}.get("kind") != "robot":
+            continue
+        for shape, prims in (("cube", e.cubes), ("cylinder", e.cylinders), ("sphere", e.spheres)):
+            for p in prims:
+                q, c = p.pose.orientation, p.color
+                out.append(RobotVisual(e.frame_id, e.id, shape, (p.size.x, p.size.y, p.size.z),
+                                       (p.pose.position.x, p.pose.position.y, p.pose.position.z),
+                                       (q.x, q.y, q.z, q.w), (c.r, c.g, c.b, c.a)))
+    return out
 
 
 def _grid_from_message(msg: Grid) -> OccupancyGrid:
@@ -125,8 +173,11 @@ class _Builder:
         self.presumed: list[tuple[float, np.ndarray]] = []
         self.driven: list[tuple[float, np.ndarray]] = []
         self.counts: dict[str, int] = defaultdict(int)
-        self._pending_base: list[tuple[float, float, float, float]] = []
-        self._pending_joints: list[tuple[float, list[float]]] = []
+        self._pending: list[tuple[float, list[float], list[float]]] = []  # (t, base, joints)
+        self.tf: dict[str, tuple[str, list]] = {}  # child -> (parent, [(t, x, y, z, qx, qy, qz, qw)])
+        self.moves: list[ObjectMove] = []
+        self._n_scene = 0
+        self.robot_visuals: list[RobotVisual] = []
         self.last_t = 0.0
 
     def metadata_record(self, m: Metadata) -> None:
@@ -143,27 +194,27 @@ class _Builder:
         data = bytes(msg.data)
         if topic == TF_TOPIC:
             for tr in FrameTransforms.FromString(data).transforms:
-                if tr.parent_frame_id == WORLD_FRAME and tr.child_frame_id == BASE_FRAME:
-                    s = (t, tr.translation.x, tr.translation.y, _yaw(tr.rotation.z, tr.rotation.w))
-                    self.base.append(s)
-                    self._pending_base.append(s)
+                series = self.tf.setdefault(tr.child_frame_id, (tr.parent_frame_id, []))[1]
+                series.append((t, tr.translation.x, tr.translation.y, tr.translation.z, tr.rotation.x,
+                               tr.rotation.y, tr.rotation.z, tr.rotation.w))
         elif topic == JOINT_TOPIC:
             d = json.loads(data)
             self.joint_names = tuple(d["names"])
             self.joint_t.append(t)
             self.joints.append(d["positions"])
-            self._pending_joints.append((t, d["positions"]))
+            self.base.append((t, *d["base"]))
+            self._pending.append((t, d["base"], d["positions"]))
         elif topic == ACTIONS_TOPIC:
             d = json.loads(data)
             res = ActionResult.from_record(d)
-            if self._pending_base:
-                pb = np.asarray(self._pending_base, dtype=float)
-                nj = len(self._pending_joints[0][1]) if self._pending_joints else 0
-                jt = (np.asarray([p for _, p in self._pending_joints], dtype=float)
-                      if len(self._pending_joints) == len(pb) and nj else np.zeros((len(pb), 0)))
-                res.trajectory = Trajectory(t=pb[:, 0], base=pb[:, 1:4], joints=jt,
-                                            joint_names=self.joint_names if jt.shape[1] else ())
-            self._pending_base, self._pending_joints = [], []
+            if self._pending:
+                n = len(self._pending)
+                res.trajectory = Trajectory(
+                    t=np.asarray([p[0] for p in self._pending], dtype=float),
+                    base=np.asarray([p[1] for p in self._pending], dtype=float).reshape(n, 3),
+                    joints=np.asarray([p[2] for p in self._pending], dtype=float).reshape(n, -1),
+                    joint_names=self.joint_names)
+            self._pending = []
             self.actions.append(res)
             self.contexts.append(d.get("context", {}))
         elif topic == LOG_TOPIC:
@@ -176,7 +227,16 @@ class _Builder:
         elif topic.startswith(GRID_PREFIX):
             self.grids[topic[len(GRID_PREFIX):]] = _grid_from_message(Grid.FromString(data))
         elif topic == SCENE_TOPIC:
-            pass  # the scene comes from the exact "scene.json" attachment
+            self._n_scene += 1
+            if self._n_scene == 1:  # the initial scene: exact in "scene.json"; robot shapes only here
+                self.robot_visuals = _robot_visuals(SceneUpdate.FromString(data))
+            else:
+                for e in SceneUpdate.FromString(data).entities:
+                    if e.id.startswith("object/") and e.cubes:
+                        c = e.cubes[0]
+                        p, q = c.pose.position, c.pose.orientation
+                        self.moves.append(ObjectMove(t, e.id[len("object/"):], e.frame_id, (p.x, p.y, p.z),
+                                                     (q.x, q.y, q.z, q.w), (c.size.x, c.size.y, c.size.z)))
         else:
             self.events[topic].append((t, json.loads(data)))
 
@@ -191,10 +251,16 @@ class _Builder:
             path=self.path, metadata=self.metadata, run=run, scene=self.scene, grids=self.grids,
             actions=self.actions, contexts=self.contexts, events=dict(self.events), logs=self.logs,
             base=np.asarray(self.base, dtype=float).reshape(-1, 4), joint_names=self.joint_names,
-            joints=np.asarray(self.joints, dtype=float).reshape(len(self.joints), -1),
+            joints=(np.asarray(self.joints, dtype=float).reshape(len(self.joints), -1) if self.joints
+                    else np.zeros((0, len(self.joint_names)))),
             joint_t=np.asarray(self.joint_t, dtype=float), presumed_paths=self.presumed,
             driven_paths=self.driven, counts=dict(self.counts), complete=complete,
-            stopped_at=stopped_at, summary_counts=summary_counts)
+            stopped_at=stopped_at, summary_counts=summary_counts,
+            frames={k: FrameSeries(parent, np.asarray([r[0] for r in rows], dtype=float),
+                                   np.asarray([r[1:4] for r in rows], dtype=float).reshape(-1, 3),
+                                   np.asarray([r[4:8] for r in rows], dtype=float).reshape(-1, 4))
+                    for k, (parent, rows) in sorted(self.tf.items())},
+            object_moves=self.moves, robot_visuals=self.robot_visuals)
 
 
 def _read_complete(path: Path, b: _Builder) -> dict[str, int]:

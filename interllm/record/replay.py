@@ -2,15 +2,23 @@
 
 Entities (timeline ``sim_time``: simulated mission time, a duration in seconds):
 
-- ``world/scene/{walls,doors,furniture,objects}``  Boxes3D (static, from the scene attachment)
-- ``world/robot``                                  Transform3D over time (world -> base_link)
-  with ``world/robot/body`` a static Boxes3D footprint
+- ``world/scene/{walls,doors,furniture}``          Boxes3D (static, from the scene attachment)
+- ``world/scene/objects``                          Boxes3D of the objects that lie in the world,
+  re-logged at every grasp and release (a held object is drawn under the gripper's entity, at
+  ``.../grip/held``, so it travels with the hand)
+- ``world/robot``                                  Transform3D over time (world -> base_link, every
+  trajectory sample); the arm's link frames from ``/tf`` nest under it
+  (``world/robot/shoulder/upper_arm/...``), each a Transform3D over time, and the robot's shapes
+  from the first ``/scene`` update hang off them as static ``visual/<name>`` Boxes3D / Cylinders3D
+  (``world/robot/body``, a box, when the log has no robot shapes)
 - ``world/paths/{presumed,driven}``                LineStrips3D per navigate action
 - ``topdown/grid``                                 the presumed occupancy grid as an Image
   (``topdown/grid_true`` the true one) with ``topdown/{robot,presumed,driven}`` in pixel coordinates
 - ``log``                                          TextLog of /log lines; ``events/<topic>`` TextLog of
   planner events (compact JSON)
 - ``costs/{navigate,pickup,place}`` and ``costs/cumulative``  Scalars of action costs at the action end
+- ``metrics/m_overall_cum``                        Scalars of the cumulative m_overall per object
+  (``/metrics/object`` events) and ``metrics/sr_obj`` of each object
 - ``joints/<name>``                                Scalars of arm joint angles [rad]
 
 The blueprint shows a 3D view, the top-down 2D view, the text log and the cost plots. A
@@ -30,10 +38,11 @@ from pathlib import Path
 
 import numpy as np
 
-from interllm.record.mcap_writer import scene_boxes
+from interllm.record.mcap_writer import BASE_FRAME, WORLD_FRAME, scene_boxes
 from interllm.record.reader import RunLog, read_run
 
 TIMELINE = "sim_time"
+GRIP_FRAME = "grip"  # interllm.sim.kinematics.GRIP_FRAME (not imported: replay needs no MuJoCo)
 ROBOT_HALF_SIZE = (0.25, 0.25, 0.2)  # [m] drawn base footprint
 _KIND_PATH = {"wall": "walls", "door": "doors", "furniture": "furniture", "object": "objects"}
 _KIND_COLOR = {"wall": (190, 190, 185), "door": (140, 90, 45), "furniture": (115, 140, 190),
@@ -71,7 +80,8 @@ def blueprint():
             rrb.Vertical(
                 rrb.Spatial3DView(origin="world", name="3D"),
                 rrb.TimeSeriesView(origin="costs", name="Action costs"),
-                row_shares=[3, 2],
+                rrb.TimeSeriesView(origin="metrics", name="m_overall (cumulative, per object)"),
+                row_shares=[4, 2, 2],
             ),
             rrb.Vertical(
                 rrb.Spatial2DView(origin="topdown", name="Top-down (presumed grid)"),
@@ -108,7 +118,7 @@ def log_run(rec, run: RunLog) -> None:
     if run.scene is not None:
         boxes = scene_boxes(run.scene)
         for kind, sub in _KIND_PATH.items():
-            bs = [b for b in boxes if b["kind"] == kind]
+            bs = [b for b in boxes if b["kind"] == kind and kind != "object"]
             if not bs:
                 continue
             half = np.asarray([b["size"] for b in bs], dtype=float) / 2
@@ -117,9 +127,20 @@ def log_run(rec, run: RunLog) -> None:
                 centers=np.asarray([b["center"] for b in bs], dtype=float), half_sizes=half,
                 quaternions=quats, colors=[_KIND_COLOR[kind]] * len(bs),
                 labels=[b["id"] for b in bs], fill_mode=rr.components.FillMode.Solid,
-                show_labels=kind in ("furniture", "object")), static=True)
-    rec.log("world/robot/body", rr.Boxes3D(half_sizes=[ROBOT_HALF_SIZE], centers=[(0, 0, ROBOT_HALF_SIZE[2])],
-                                           colors=[(60, 200, 90)], labels=["robot"]), static=True)
+                show_labels=kind == "furniture"), static=True)
+    paths = _frame_paths(run)
+    if run.robot_visuals:
+        _log_robot_visuals(rec, run, paths)
+    else:
+        rec.log("world/robot/body", rr.Boxes3D(half_sizes=[ROBOT_HALF_SIZE], centers=[(0, 0, ROBOT_HALF_SIZE[2])],
+                                               colors=[(60, 200, 90)], labels=["robot"]), static=True)
+    for frame, fs in sorted(run.frames.items()):
+        if frame == BASE_FRAME or frame not in paths or not len(fs.t):
+            continue
+        rec.send_columns(paths[frame], indexes=[rr.TimeColumn(TIMELINE, duration=fs.t)],
+                         columns=rr.Transform3D.columns(translation=fs.xyz, quaternion=fs.quat))
+    if run.scene is not None:
+        _log_objects(rec, run, paths)
 
     has_grid = "presumed" in run.grids
     for name, grid in sorted(run.grids.items()):
@@ -160,6 +181,11 @@ def log_run(rec, run: RunLog) -> None:
         status = "ok" if a.success else f"FAILED: {a.reason}"
         rec.log("events/actions", rr.TextLog(f"{a.action} cost={a.cost:.2f} t={a.time:.2f}s {status} {ctx}",
                                              level="INFO" if a.success else "WARN"))
+    for t, payload in run.events.get("/metrics/object", []):
+        if "m_overall_cum" in payload:
+            rec.set_time(TIMELINE, duration=t)
+            rec.log("metrics/m_overall_cum", rr.Scalars(float(payload["m_overall_cum"])))
+            rec.log("metrics/sr_obj", rr.Scalars(float(payload.get("sr_obj", 0.0))))
     for t, level, msg in run.logs:
         rec.set_time(TIMELINE, duration=t)
         rec.log("log", rr.TextLog(msg, level=_RR_LEVEL.get(level, "INFO")))
@@ -173,6 +199,87 @@ def log_run(rec, run: RunLog) -> None:
     if not run.complete:
         rec.set_time(TIMELINE, duration=run.sim_time)
         rec.log("log", rr.TextLog(f"TRUNCATED RUN LOG: {run.stopped_at}", level="WARN"))
+
+
+def _frame_paths(run: RunLog) -> dict[str, str]:
+    """Entity path of every /tf frame: world -> world, base_link -> world/robot, a child frame
+    under its parent's path (world/robot/shoulder/upper_arm/...)."""
+    parents = {k: fs.parent for k, fs in run.frames.items()}
+    paths = {WORLD_FRAME: "world", BASE_FRAME: "world/robot"}
+
+    def path(frame: str, depth: int = 0) -> str | None:
+        if frame in paths:
+            return paths[frame]
+        parent = parents.get(frame)
+        if parent is None or depth > 64:
+            return None
+        p = path(parent, depth + 1)
+        if p is None:
+            return None
+        paths[frame] = f"{p}/{frame}"
+        return paths[frame]
+
+    for f in sorted(parents):
+        path(f)
+    return paths
+
+
+def _rgb(c) -> tuple[int, ...]:
+    return tuple(int(round(255 * max(0.0, min(1.0, v)))) for v in c)
+
+
+def _log_robot_visuals(rec, run: RunLog, paths: dict[str, str]) -> None:
+    import rerun as rr
+
+    solid = rr.components.FillMode.Solid
+    for v in run.robot_visuals:
+        base = paths.get(v.frame)
+        if base is None:
+            continue
+        ent = f"{base}/visual/{v.name.replace('/', '_')}"
+        q = rr.Quaternion(xyzw=list(v.quaternion))
+        if v.shape == "cylinder":
+            arch = rr.Cylinders3D(lengths=[v.size[2]], radii=[v.size[0] / 2], centers=[v.position],
+                                  quaternions=[q], colors=[_rgb(v.color)], fill_mode=solid)
+        elif v.shape == "sphere":
+            arch = rr.Ellipsoids3D(half_sizes=[np.asarray(v.size) / 2], centers=[v.position],
+                                   colors=[_rgb(v.color)], fill_mode=solid)
+        else:
+            arch = rr.Boxes3D(half_sizes=[np.asarray(v.size) / 2], centers=[v.position], quaternions=[q],
+                              colors=[_rgb(v.color)], fill_mode=solid)
+        rec.log(ent, arch, static=True)
+
+
+def _log_objects(rec, run: RunLog, paths: dict[str, str]) -> None:
+    """Objects in the world at t=0 and after every grasp / release; the held one under the grip."""
+    import rerun as rr
+
+    objs = {o.id: {"center": tuple(o.position), "quat": (0.0, 0.0, 0.0, 1.0), "size": tuple(o.size)}
+            for o in run.scene.objects.values()}  # type: ignore[union-attr]
+    held_path = f"{paths.get(GRIP_FRAME, 'world/robot')}/held"
+    color = _KIND_COLOR["object"]
+    solid = rr.components.FillMode.Solid
+
+    def log_world(t: float) -> None:
+        ids = sorted(objs)
+        rec.set_time(TIMELINE, duration=t)
+        rec.log("world/scene/objects", rr.Boxes3D(
+            centers=[objs[i]["center"] for i in ids], half_sizes=[np.asarray(objs[i]["size"]) / 2 for i in ids],
+            quaternions=[rr.Quaternion(xyzw=list(objs[i]["quat"])) for i in ids], colors=[color] * len(ids),
+            labels=ids, fill_mode=solid, show_labels=True))
+
+    log_world(0.0)
+    for mv in run.object_moves:
+        if mv.frame == WORLD_FRAME:
+            objs[mv.object] = {"center": mv.position, "quat": mv.quaternion, "size": mv.size}
+            log_world(mv.t)
+            rec.log(held_path, rr.Clear(recursive=False))
+        else:
+            objs.pop(mv.object, None)
+            log_world(mv.t)
+            rec.log(held_path, rr.Boxes3D(centers=[mv.position], half_sizes=[np.asarray(mv.size) / 2],
+                                          quaternions=[rr.Quaternion(xyzw=list(mv.quaternion))], colors=[color],
+                                          labels=[mv.object], fill_mode=solid))
 
 
 def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool = False,

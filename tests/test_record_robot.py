@@ -1,0 +1,241 @@
+"""The robot in the run log: arm forward kinematics on /tf, objects moving on /scene, and the
+rerun replay of both, checked against MuJoCo's own kinematics of the full house model."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from mcap.reader import make_reader
+from test_record_helpers import make_actions, make_scene, rerun_cli, run_cli
+from test_sim_world import house, mission, nav
+
+from interllm.config import SimConfig
+from interllm.planning.domain import Action
+from interllm.record import McapRecorder, read_run, replay
+from interllm.sim.kinematics import GRIP_FRAME, RobotKinematics, quat_mul_xyzw
+from interllm.sim.robot import ARM_JOINTS
+from interllm.sim.world import World
+
+pytest.importorskip("mujoco")
+
+
+def _rot(q) -> np.ndarray:
+    """(x, y, z, w) -> 3x3 rotation matrix."""
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _compose(chain_poses: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """World pose (p, R) of the last frame of a chain of relative (xyz, quat_xyzw) poses."""
+    p, r = np.zeros(3), np.eye(3)
+    for xyz, q in chain_poses:
+        p = p + r @ np.asarray(xyz, dtype=float)
+        r = r @ _rot(q)
+    return p, r
+
+
+def _base_pose(x, y, yaw):
+    return np.array([x, y, 0.0]), np.array([0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)])
+
+
+@pytest.fixture(scope="module")
+def kin():
+    return RobotKinematics(SimConfig())
+
+
+def test_chain_matches_mujoco_on_the_full_house_model(kin):
+    w = World(house(), SimConfig())
+    w.reset(mission())
+    rng = np.random.default_rng(0)
+    m, d = w.model, w.data
+    for _ in range(20):
+        base = (rng.uniform(1, 3), rng.uniform(1, 3), rng.uniform(-math.pi, math.pi))
+        q = rng.uniform(-1.5, 1.5, size=6)
+        w.set_base(*base)
+        w.set_arm(q)
+        t, quat = kin.link_poses(q)
+        poses = {"base_link": [_base_pose(*base)]}
+        for i, (parent, child) in enumerate(kin.chain):
+            poses[child] = poses[parent] + [(t[i], quat[i])]
+        for child in kin.frames:
+            p, r = _compose(poses[child])
+            if child == GRIP_FRAME:
+                want_p, want_r = w.grip_pose()
+            else:
+                bid = m.body(f"robot/{child}").id
+                want_p, want_r = d.xpos[bid], d.xmat[bid].reshape(3, 3)
+            np.testing.assert_allclose(p, want_p, atol=1e-9, err_msg=child)
+            np.testing.assert_allclose(r, want_r, atol=1e-9, err_msg=child)
+
+
+def test_link_poses_batch_equals_single_and_quaternions_are_unit(kin):
+    q = np.random.default_rng(1).uniform(-2, 2, size=(7, 6))
+    t, quat = kin.link_poses(q)
+    assert t.shape == (7, len(kin.chain), 3) and quat.shape == (7, len(kin.chain), 4)
+    np.testing.assert_allclose(np.linalg.norm(quat, axis=-1), 1.0, atol=1e-12)
+    t3, q3 = kin.link_poses(q[3])
+    np.testing.assert_array_equal(t3, t[3])
+    np.testing.assert_array_equal(q3, quat[3])
+    # hand roll (joint 6) turns the hand about its x axis and nothing else
+    a, b = kin.link_poses(np.zeros(6)), kin.link_poses(np.r_[np.zeros(5), 0.7])
+    hand = kin.frames.index("hand")
+    np.testing.assert_allclose(b[1][hand], quat_mul_xyzw(a[1][hand], [math.sin(0.35), 0, 0, math.cos(0.35)]))
+    assert np.array_equal(np.delete(a[1], hand, 0), np.delete(b[1], hand, 0))
+
+
+@pytest.fixture(scope="module")
+def carried(tmp_path_factory, kin):
+    """A real run: drive to the table, pick the cup, drive to the counter, place it there."""
+    w = World(house(), SimConfig())
+    w.reset(mission())
+    path = tmp_path_factory.mktemp("robot") / "carry.mcap"
+    results = []
+    with McapRecorder(path, house(), {"seed": 0}, robot=kin) as rec:
+        for a in (nav("table_1", "room_b"), Action("pickup", "table_1", obj="cup_1"),
+                  nav("counter_1", "room_a"), Action("place", "counter_1", obj="cup_1")):
+            r = w.execute(a)
+            assert r.success, r.reason
+            rec.action(r, {"step": len(results)})
+            results.append(r)
+    return path, results, w
+
+
+def _messages(path, topic):
+    with open(path, "rb") as f:
+        return [m for _, ch, m in make_reader(f).iter_messages(topics=[topic])]
+
+
+def test_trajectories_round_trip_exactly_from_joint_states(carried):
+    path, results, _ = carried
+    run = read_run(path)
+    for got, want in zip(run.actions, results, strict=True):
+        np.testing.assert_array_equal(got.trajectory.base, want.trajectory.base)
+        np.testing.assert_array_equal(got.trajectory.joints, want.trajectory.joints)
+        assert got.trajectory.joint_names == ARM_JOINTS
+    assert run.counts["/joint_states"] == sum(len(r.trajectory.t) for r in results)
+
+
+def test_tf_is_sparse_and_its_chain_puts_the_gripper_where_mujoco_does(carried, kin):
+    path, results, _ = carried
+    tfs = [(m.log_time, FrameTransforms.FromString(m.data)) for m in _messages(path, "/tf")]
+    n_samples = sum(len(r.trajectory.t) for r in results)
+    assert len(tfs) == n_samples  # every sample of this run moves something
+
+    starts = np.cumsum([0] + [len(r.trajectory.t) for r in results])  # /tf is in file (= sample) order
+
+    def frames_during(k):  # frames logged after action k's first sample
+        return {tr.child_frame_id for _, m in tfs[starts[k] + 1:starts[k + 1]] for tr in m.transforms}
+
+    assert frames_during(0) == {"base_link"}  # driving with the arm tucked: the base only
+    assert frames_during(1) == set(kin.frames)  # reaching from a parked base: the arm only
+    first = {tr.child_frame_id for tr in tfs[0][1].transforms}
+    assert first == {"base_link", *kin.frames}  # every frame at an action's first sample
+    # replay the log's transforms (last one per frame at or before t) and compare with MuJoCo
+    run = read_run(path)
+    check = World(house(), SimConfig())
+    check.reset(mission())
+    pickup = results[1]
+    for k in range(0, len(pickup.trajectory.t), 3):
+        t = pickup.trajectory.t[k]
+        chain = []
+        for frame in ("base_link", *kin.frames):
+            fs = run.frames[frame]
+            j = int(np.searchsorted(fs.t, t + 1e-9, side="right")) - 1
+            chain.append((fs.xyz[j], fs.quat[j]))
+        p, r = _compose(chain)
+        check.set_base(*pickup.trajectory.base[k])
+        check.set_arm(pickup.trajectory.joints[k])
+        want_p, want_r = check.grip_pose()
+        np.testing.assert_allclose(p, want_p, atol=1e-6)
+        np.testing.assert_allclose(r, want_r, atol=1e-6)
+
+
+def test_scene_updates_carry_the_object_and_put_it_down(carried, kin):
+    path, results, w = carried
+    run = read_run(path)
+    assert [(m.object, m.frame) for m in run.object_moves] == [("cup_1", GRIP_FRAME), ("cup_1", "world")]
+    grasp, release = run.object_moves
+    pickup, place = results[1], results[3]
+    assert pickup.t_start < grasp.t < pickup.t_start + pickup.time
+    assert place.t_start < release.t < place.t_start + place.time
+    assert release.position == pytest.approx(w.scene.objects["cup_1"].position, abs=1e-12)
+    assert grasp.size == pytest.approx(house().objects["cup_1"].size)
+    # the held pose composed with the logged /tf chain at the grasp is where the cup stood
+    chain = []
+    for frame in ("base_link", *kin.frames):
+        fs = run.frames[frame]
+        j = int(np.searchsorted(fs.t, grasp.t + 1e-9, side="right")) - 1
+        chain.append((fs.xyz[j], fs.quat[j]))
+    chain.append((grasp.position, grasp.quaternion))
+    p, _ = _compose(chain)
+    np.testing.assert_allclose(p, house().objects["cup_1"].position, atol=1e-6)
+    # the initial /scene draws the robot's geoms in frames that /tf moves
+    first = SceneUpdate.FromString(_messages(path, "/scene")[0].data)
+    robot = [e for e in first.entities if any(kv.key == "kind" and kv.value == "robot" for kv in e.metadata)]
+    assert len(robot) == len(kin.visuals()) == len(run.robot_visuals)
+    assert {e.frame_id for e in robot} <= set(run.frames)
+    assert all(e.frame_locked for e in robot)
+
+
+def test_recorder_rejects_a_trajectory_that_does_not_fit_the_robot(tmp_path, kin):
+    r, ctx = make_actions(1, 5)[0]  # 3 joints, the robot has 6
+    with pytest.raises(ValueError, match="3 arm joints"), McapRecorder(tmp_path / "x.mcap", make_scene(), {},
+                                                                         robot=kin) as rec:
+        rec.action(r, ctx)
+    assert read_run(tmp_path / "x.mcap").status == "error"
+
+
+def test_nonfinite_joint_sample_has_no_link_frames_and_round_trips(tmp_path, kin):
+    r, ctx = make_actions(1, 5)[0]
+    r.trajectory.joints = np.tile(np.linspace(0, 1, 6), (5, 1)) * np.arange(1, 6)[:, None]
+    r.trajectory.joint_names = ARM_JOINTS
+    r.trajectory.joints[2, 1] = float("nan")
+    with McapRecorder(tmp_path / "nan.mcap", make_scene(), {}, robot=kin) as rec:
+        rec.action(r, ctx)
+    tfs = [FrameTransforms.FromString(m.data) for m in _messages(tmp_path / "nan.mcap", "/tf")]
+    assert [len(m.transforms) for m in tfs] == [1 + len(kin.chain), 1 + len(kin.chain), 1,
+                                                1 + len(kin.chain), 1 + len(kin.chain)]
+    js = [json.loads(m.data) for m in _messages(tmp_path / "nan.mcap", "/joint_states")]
+    assert math.isnan(js[2]["positions"][1]) and js[0]["base"] == r.trajectory.base[0].tolist()
+    got = read_run(tmp_path / "nan.mcap").actions[0].trajectory
+    np.testing.assert_array_equal(got.joints, r.trajectory.joints)  # NaN compares equal here
+    np.testing.assert_array_equal(got.base, r.trajectory.base)
+
+
+@pytest.mark.skipif(rerun_cli() is None, reason="rerun CLI not installed")
+def test_replay_nests_the_arm_and_carries_the_object(carried, tmp_path):
+    import re
+
+    path, results, _ = carried
+    out = replay(path, save=str(tmp_path / "carry.rrd"))[0]
+    assert run_cli("rrd", "verify", str(out)).returncode == 0
+    p = run_cli("rrd", "print", str(out))
+    ents = set(re.findall(r" - (/\S+) - data columns", p.stdout))
+    arm = "/world/robot/shoulder/upper_arm/forearm/wrist_roll/wrist/hand"
+    for e in (arm, f"{arm}/grip", f"{arm}/grip/held", f"{arm}/visual/robot_hand",
+              "/world/robot/visual/robot_base", "/world/scene/objects"):
+        assert e in ents, f"{e} not in {sorted(ents)}"
+
+
+def test_trajectory_figure_from_run_logs(carried, tmp_path):
+    from test_record_helpers import write_run
+
+    from interllm.record.figures import mission_trajectories_figure
+
+    path, _, _ = carried
+    out = mission_trajectories_figure({"inter_llm": path, "sayplan": read_run(path)}, tmp_path / "t.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    again = mission_trajectories_figure({"inter_llm": path, "sayplan": path}, tmp_path / "t2.png")
+    assert again.read_bytes() == out.read_bytes()
+    write_run(tmp_path / "other.mcap", 2, 5)  # a run in another scene
+    with pytest.raises(ValueError, match="different scenes"):
+        mission_trajectories_figure({"a": path, "b": tmp_path / "other.mcap"}, tmp_path / "x.png")
+    with pytest.raises(ValueError, match="no runs"):
+        mission_trajectories_figure({}, tmp_path / "y.png")
