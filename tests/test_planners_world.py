@@ -65,3 +65,39 @@ def test_inter_llm_with_the_real_embedded_model_on_one_command(tiny, tmp_path):
     s = rec["commands"][0]["summary"]
     assert s["candidates"] and len(s["estimated_costs"]) == len(s["candidates"])
     assert rec["commands"][0]["actions"]
+
+
+def test_run_log_has_every_llm_call_and_the_per_object_metrics(tiny, tmp_path):
+    """The mission's MCAP holds one /llm/calls event per counted call and, at the end of each
+    command, that command's per-object rows exactly as the aggregate stage computes them."""
+    from interllm.metrics.compute import Gammas, mission_rows
+    from interllm.record import McapRecorder, read_run
+    from interllm.sim.kinematics import RobotKinematics
+
+    scene, mission = tiny
+    cfg = ExperimentConfig()
+    cfg.mission.commands_per_mission = 2
+    client = FakeScoreClient()
+    cands = generate_initial_candidates(scene, mission, client, cfg)
+    paths = []
+    for i in range(2):
+        paths.append(tmp_path / f"run{i}.mcap")
+        with McapRecorder(paths[-1], scene, {"seed": 0}, robot=RobotKinematics(cfg.sim)) as rec:
+            record = run_mission("inter_llm", scene, mission, cands, FakeScoreClient(), cfg, rec)
+    assert paths[0].read_bytes() == paths[1].read_bytes()  # same inputs, same bytes
+    run = read_run(paths[0])
+    calls = run.events["/llm/calls"]
+    assert len(calls) == sum(c["summary"]["llm_calls"] for c in record["commands"]) > 0
+    assert all(p["key"] and p["kind"] in ("score", "complete") and p["purpose"] for _, p in calls)
+    assert [t for t, _ in calls] == sorted(t for t, _ in calls)
+    scene_map = {"category": {o.id: o.category for o in scene.objects.values()},
+                 "furniture": {o.id: o.furniture for o in scene.objects.values()}}
+    rows, cmd_rows, mission_row = mission_rows(record, scene_map, Gammas.from_config(cfg))
+    logged = [p for _, p in run.events["/metrics/object"]]
+    assert logged == json.loads(json.dumps(rows))
+    assert [p for _, p in run.events["/metrics/command"]] == json.loads(json.dumps(cmd_rows))
+    assert logged[-1]["m_overall_cum"] == pytest.approx(mission_row["m_overall"])
+    assert mission_row["m_overall"] == pytest.approx(sum(r["m_overall"] for r in logged))
+    # each command's rows are logged when it ends: at the simulated time of its last action
+    ends = [c["actions"][-1]["t_start"] + c["actions"][-1]["time"] for c in record["commands"]]
+    assert sorted({t for t, _ in run.events["/metrics/command"]}) == pytest.approx(ends)

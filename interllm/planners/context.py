@@ -35,12 +35,32 @@ from interllm.planning.memory import KnownCosts
 from interllm.scene.graph import Command, Mission
 from interllm.sim.results import ActionResult
 
+LLM_TOPIC = "/llm/calls"
+
+
+def llm_call_record(request: LLMRequest | ScoreRequest, response: LLMResponse | ScoreResponse) -> dict:
+    """What the run log keeps of one LLM call: the cache key (the full prompt and answer are in the
+    response cache under it), purpose, labels, token counts and the answer. Nothing that differs
+    between a cold and a warm run (latency, cache hit), so run logs stay byte-identical."""
+    rec: dict[str, Any] = {"key": response.key, "purpose": request.purpose, "template": request.template,
+                           "context": dict(request.context), "tokens_in": int(response.tokens_in)}
+    if isinstance(request, ScoreRequest):
+        rec.update(kind="score", continuations=list(request.continuations),
+                   scores=[float(v) for v in response.scores], calibrated=request.calibration_prompt is not None)
+    else:
+        rec.update(kind="complete", tokens_out=int(response.tokens_out), temperature=request.options.temperature,
+                   sample_index=request.options.sample_index,
+                   answer=response.parsed if response.parsed is not None else response.text)
+    return rec
+
 
 class CountingClient:
-    """Wraps an LLM client; counts calls and tokens (reset per command)."""
+    """Wraps an LLM client; counts calls and tokens (reset per command) and reports every call
+    to ``on_call(request, response)`` (the run log's ``/llm/calls``)."""
 
-    def __init__(self, client: Any):
+    def __init__(self, client: Any, on_call: Optional[Callable[[Any, Any], None]] = None):
         self.inner = client
+        self.on_call = on_call
         self.calls = 0
         self.tokens_in = 0
         self.tokens_out = 0
@@ -53,12 +73,16 @@ class CountingClient:
         self.calls += 1
         self.tokens_in += int(r.tokens_in)
         self.tokens_out += int(r.tokens_out)
+        if self.on_call is not None:
+            self.on_call(request, r)
         return r
 
     def score(self, request: ScoreRequest) -> ScoreResponse:
         r = self.inner.score(request)
         self.calls += 1
         self.tokens_in += int(r.tokens_in)
+        if self.on_call is not None:
+            self.on_call(request, r)
         return r
 
 
@@ -78,7 +102,10 @@ class PlannerContext:
 
     def __post_init__(self) -> None:
         if not isinstance(self.client, CountingClient):
-            self.client = CountingClient(self.client)
+            self.client = CountingClient(self.client, on_call=self._log_llm_call)
+
+    def _log_llm_call(self, request: Any, response: Any) -> None:
+        self.recorder.event(LLM_TOPIC, float(self.world.clock), llm_call_record(request, response))
 
     # ---- labels, seeds, logging ---------------------------------------------------------
     def labels(self, command: Command) -> tuple[tuple[str, str], ...]:

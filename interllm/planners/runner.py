@@ -43,6 +43,11 @@ def run_mission(planner_name: str, scene: SceneGraph, mission: Mission, initial_
     ctx = PlannerContext(world=world, client=client, memory=KnownCosts(), recorder=recorder, cfg=cfg,
                          mission=mission, planner=planner_name,
                          initial_candidates=candidates_from_json(initial_candidates))
+    from interllm.metrics.compute import Gammas, mission_rows
+
+    gammas = Gammas.from_config(cfg)
+    scene_map = {"category": {o.id: o.category for o in scene.objects.values()},
+                 "furniture": {o.id: o.furniture for o in scene.objects.values()}}
     commands = []
     for cmd in mission.commands:
         recorder.log(float(world.clock), "info", f"{planner_name}: command {cmd.id}: {cmd.text}")
@@ -64,5 +69,12 @@ def run_mission(planner_name: str, scene: SceneGraph, mission: Mission, initial_
             "actions": [r.to_record() for r in res.actions],
             "final_locations": final,
         })
+        # the aggregate stage's per-object rows of this command, as they stand when it ends
+        rows, cmd_rows, _ = mission_rows({"planner": planner_name, "scene_id": scene.id, "mission_id": mission.id,
+                                          "commands": commands}, scene_map, gammas)
+        for row in rows:
+            if row["command_index"] == len(commands):
+                recorder.event("/metrics/object", float(world.clock), row)
+        recorder.event("/metrics/command", float(world.clock), cmd_rows[-1])
     return {"planner": planner_name, "scene_id": scene.id, "mission_id": mission.id, "commands": commands,
             "sim_time": float(world.clock)}
