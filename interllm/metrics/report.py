@@ -344,6 +344,28 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
             doc.img(p, f"scene {sid} (top-down)")
     else:
         doc.p(f"No topdown.png under {scenes_dir} for scenes {scenes}.")
+    from interllm.record.figures import mission_trajectories_figure
+
+    doc.h(2, "Trajectories")
+    shown = 0
+    for sid in scenes:
+        by_mission: dict[str, dict[str, Path]] = {}
+        for m in sorted(Path(runs_dir).glob(f"*/{sid}/*.mcap")) if Path(runs_dir).is_dir() else []:
+            by_mission.setdefault(m.stem, {})[m.parent.parent.name] = m
+        if not by_mission:
+            continue
+        mission, runs = sorted(by_mission.items())[0]
+        try:
+            f = mission_trajectories_figure({p: runs[p] for p in _ordered(runs)},
+                                            fig_dir / f"trajectories_{sid}_{mission}.png")
+        except (ValueError, OSError) as e:  # an unreadable log must not sink the report
+            doc.p(f"Could not draw the trajectories of {sid} {mission}: {e}")
+            continue
+        figures.append(f)
+        doc.img(f, f"{sid} {mission}: where each planner drove (from the run logs)")
+        shown += 1
+    if not shown:
+        doc.p(f"No .mcap run logs under {runs_dir} to draw trajectories from.")
     doc.h(2, "Run logs (MCAP)")
     mcaps = sorted(Path(runs_dir).glob("**/*.mcap")) if Path(runs_dir).is_dir() else []
     if mcaps:

@@ -6,7 +6,7 @@ date or software metadata, so re-rendering the same scene gives the same bytes o
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Optional
 
@@ -20,12 +20,16 @@ PLACEMENT_COLORS = {"front": "#2a9d8f", "deep": "#e9c46a", "high": "#9b5de5", "c
 
 
 def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[OccupancyGrid] = None,
-                   paths: Optional[Sequence[Sequence[Sequence[float]]]] = None, dpi: int = 100,
-                   labels: bool = True, narrow_width: float = 0.9) -> None:
+                   paths: Optional[Sequence[Sequence[Sequence[float]]] | Mapping[str, Sequence]] = None,
+                   dpi: int = 100, labels: bool = True, narrow_width: float = 0.9,
+                   markers: Sequence[tuple[float, float, str, str]] = (), title: Optional[str] = None,
+                   colors: Optional[Mapping[str, str]] = None) -> None:
     """Draw ``scene`` from above into ``path_png``.
 
     grid: optional occupancy grid drawn underneath (occupied cells grey).
-    paths: optional robot paths, each a sequence of (x, y) [m].
+    paths: optional robot paths, each a sequence of (x, y) [m]; a mapping {label: path} draws a
+        legend (``colors``: {label: matplotlib colour}).
+    markers: (x [m], y [m], matplotlib marker, colour) drawn on top (e.g. grasps and releases).
     narrow_width: doors narrower than this [m] are drawn as narrow.
     """
     import io
@@ -80,11 +84,18 @@ def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[Occup
         xy = np.array([o.position[:2] for o in objs])
         ax.scatter(xy[:, 0], xy[:, 1], s=6, c=[PLACEMENT_COLORS.get(o.placement, "k") for o in objs],
                    zorder=7, linewidths=0)
-    for p in paths or []:
-        p = np.asarray(p, dtype=float)
+    named = paths.items() if isinstance(paths, Mapping) else [(None, p) for p in paths or []]
+    lines = []
+    for label, p in named:
+        p = np.asarray(p, dtype=float).reshape(-1, 2)
         if len(p):
-            ax.plot(p[:, 0], p[:, 1], lw=1.0, zorder=8)
-    ax.set_title(f"{scene.id}: {len(scene.rooms)} rooms, {len(scene.furniture)} furniture, "
+            lines += ax.plot(p[:, 0], p[:, 1], lw=1.0, zorder=8, label=label, alpha=0.85,
+                             color=(colors or {}).get(label) if label is not None else None)
+    for x, y, marker, color in markers:
+        ax.scatter([x], [y], marker=marker, s=28, c=color, edgecolors="black", linewidths=0.4, zorder=9)
+    if isinstance(paths, Mapping) and lines:
+        ax.legend(handles=lines, fontsize=6, loc="upper right", framealpha=0.9).set_zorder(20)
+    ax.set_title(title or f"{scene.id}: {len(scene.rooms)} rooms, {len(scene.furniture)} furniture, "
                  f"{len(scene.objects)} objects", fontsize=8)
     ax.tick_params(labelsize=6)
     buf = io.BytesIO()
