@@ -1,0 +1,29 @@
+"""Atomic writes: the old file survives a failed write; new files get the usual permissions."""
+
+import os
+import stat
+
+import pytest
+
+from interllm.io import atomic_write_bytes, read_json, write_json
+
+
+def test_new_file_gets_the_same_permissions_as_open_gives(tmp_path):
+    atomic_write_bytes(tmp_path / "atomic.bin", b"x")
+    with open(tmp_path / "plain.bin", "wb") as f:
+        f.write(b"x")
+    mode = stat.S_IMODE((tmp_path / "plain.bin").stat().st_mode)
+    assert stat.S_IMODE((tmp_path / "atomic.bin").stat().st_mode) == mode
+
+
+def test_failed_write_keeps_the_old_file_and_leaves_no_temp(tmp_path):
+    p = tmp_path / "m.json"
+    write_json(p, {"a": 1})
+
+    class Boom:
+        pass
+
+    with pytest.raises(TypeError):
+        write_json(p, {"a": Boom()})
+    assert read_json(p) == {"a": 1}
+    assert sorted(os.listdir(tmp_path)) == ["m.json"]
