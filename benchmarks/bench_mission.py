@@ -4,9 +4,18 @@
 
 Uses the default experiment's first scene and mission (regenerated from the config, seed 0) and
 the committed LLM cache in replay mode, so no model runs: the time is planning + MuJoCo execution
-(+ logging). Each planner's mission runs with a NullRecorder and with the McapRecorder, interleaved,
-best of N; the logging overhead is their difference as a share of the NullRecorder time
-(goal <= 10%). Also prints simulated mission time and the real-time factor.
+(+ logging). Per planner it measures, best of N:
+
+- exec: the mission with a recorder that only keeps the calls (planning + MuJoCo, no logging);
+- log: writing exactly those calls to an MCAP (McapRecorder with the robot model: /tf with the
+  arm's link frames, /joint_states, /scene updates, paths, actions, LLM calls, metrics), so the
+  overhead is log / exec (goal <= 10%);
+- log (add_message): the same file written through mcap's per-message ``Writer.add_message``
+  instead of the recorder's batched path, the obvious alternative (same bytes, checked here);
+- end to end: the whole mission with the McapRecorder against one with NullRecorder (noisier:
+  two full runs on a shared machine).
+Also prints simulated mission time, the real-time factor, the file size and the time to replay
+the file to a rerun .rrd (``interllm replay --save``; goal <= 5 s).
 """
 
 from __future__ import annotations
@@ -25,10 +34,46 @@ from omegaconf import OmegaConf  # noqa: E402
 from interllm.llm import make_client  # noqa: E402
 from interllm.planners.candidates import generate_initial_candidates  # noqa: E402
 from interllm.planners.runner import run_mission  # noqa: E402
-from interllm.record import McapRecorder, NullRecorder  # noqa: E402
+from interllm.record import McapRecorder, NullRecorder, mcap_writer, replay  # noqa: E402
 from interllm.scene import generate_missions, generate_scene  # noqa: E402
 from interllm.scene.grid import rasterize  # noqa: E402
+from interllm.sim.kinematics import RobotKinematics  # noqa: E402
 from pipeline._hydra import compose  # noqa: E402
+
+
+class CallLog:
+    """A recorder that keeps every call (to replay them into a real recorder)."""
+
+    def __init__(self) -> None:
+        self.calls: list = []
+
+    def event(self, *a) -> None:
+        self.calls.append(("event", a))
+
+    def log(self, *a) -> None:
+        self.calls.append(("log", a))
+
+    def action(self, *a) -> None:
+        self.calls.append(("action", a))
+
+
+def _per_message(self, rows) -> None:
+    for ch, t, data, seq in rows:
+        self.add_message(channel_id=ch, log_time=t, data=data, publish_time=t, sequence=seq)
+
+
+def write(path: Path, calls, scene, grids, robot, per_message: bool = False) -> float:
+    fast = mcap_writer._BatchWriter.add_messages
+    if per_message:
+        mcap_writer._BatchWriter.add_messages = _per_message
+    try:
+        t = time.perf_counter()
+        with McapRecorder(path, scene, {"bench": "1"}, grids=grids, robot=robot) as r:
+            for name, args in calls:
+                getattr(r, name)(*args)
+        return time.perf_counter() - t
+    finally:
+        mcap_writer._BatchWriter.add_messages = fast
 
 
 def main() -> None:
@@ -42,27 +87,41 @@ def main() -> None:
     client = make_client(cfg.llm)
     cands = generate_initial_candidates(scene, mission, client, cfg)
     grids = {k: rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, k) for k in ("presumed", "true")}
+    robot = RobotKinematics(cfg.sim)
     print(f"scene {scene.id}, mission {mission.id} ({len(mission.commands)} commands), replayed LLM cache")
-    print(f"{'planner':<11}{'actions':>8}{'sim [s]':>9}{'null [s]':>10}{'mcap [s]':>10}{'overhead':>10}"
-          f"{'x real time':>13}{'mcap MB':>9}")
+    print(f"{'planner':<11}{'actions':>8}{'samples':>8}{'sim [s]':>9}{'exec [s]':>9}{'log [s]':>9}"
+          f"{'overhead':>9}{'add_message':>12}{'overhead':>9}{'end-to-end':>11}{'x real time':>12}{'MB':>6}{'replay [s]':>11}")
     with tempfile.TemporaryDirectory() as tmp:
         for planner in cfg.planner.names:
-            best_null = best_mcap = float("inf")
-            size = 0.0
+            best = {"exec": float("inf"), "log": float("inf"), "slow": float("inf"), "null": float("inf"),
+                    "mcap": float("inf")}
             for i in range(args.repeats):
+                cl = CallLog()
                 t = time.perf_counter()
-                rec = run_mission(planner, scene, mission, cands, client, cfg, NullRecorder())
-                best_null = min(best_null, time.perf_counter() - t)
-                path = Path(tmp) / f"{planner}_{i}.mcap"
+                rec = run_mission(planner, scene, mission, cands, client, cfg, cl)
+                best["exec"] = min(best["exec"], time.perf_counter() - t)
+                fast_path, slow_path = Path(tmp) / f"{planner}_{i}.mcap", Path(tmp) / f"{planner}_{i}_slow.mcap"
+                best["log"] = min(best["log"], write(fast_path, cl.calls, scene, grids, robot))
+                best["slow"] = min(best["slow"], write(slow_path, cl.calls, scene, grids, robot, per_message=True))
+                assert fast_path.read_bytes() == slow_path.read_bytes(), "batched and per-message files differ"
                 t = time.perf_counter()
-                with McapRecorder(path, scene, {"bench": "1"}, grids=grids) as r:
+                run_mission(planner, scene, mission, cands, client, cfg, NullRecorder())
+                best["null"] = min(best["null"], time.perf_counter() - t)
+                t = time.perf_counter()
+                with McapRecorder(Path(tmp) / f"{planner}_e2e.mcap", scene, {"bench": "1"}, grids=grids,
+                                  robot=robot) as r:
                     run_mission(planner, scene, mission, cands, client, cfg, r)
-                best_mcap = min(best_mcap, time.perf_counter() - t)
-                size = path.stat().st_size / 1e6
+                best["mcap"] = min(best["mcap"], time.perf_counter() - t)
             n = sum(len(c["actions"]) for c in rec["commands"])
-            over = (best_mcap - best_null) / best_null
-            print(f"{planner:<11}{n:>8}{rec['sim_time']:>9.1f}{best_null:>10.2f}{best_mcap:>10.2f}{over:>10.1%}"
-                  f"{rec['sim_time'] / best_null:>13.0f}{size:>9.2f}")
+            samples = sum(a[0].trajectory.t.size for name, a in cl.calls if name == "action" and a[0].trajectory)
+            size = fast_path.stat().st_size / 1e6
+            t = time.perf_counter()
+            replay(fast_path, save=str(Path(tmp) / f"{planner}.rrd"))
+            t_replay = time.perf_counter() - t
+            print(f"{planner:<11}{n:>8}{samples:>8}{rec['sim_time']:>9.1f}{best['exec']:>9.2f}{best['log']:>9.3f}"
+                  f"{best['log'] / best['exec']:>9.1%}{best['slow']:>12.3f}{best['slow'] / best['exec']:>9.1%}"
+                  f"{(best['mcap'] - best['null']) / best['null']:>11.1%}{rec['sim_time'] / best['exec']:>12.0f}"
+                  f"{size:>6.2f}{t_replay:>11.2f}")
     client.close()
 
 
