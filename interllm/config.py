@@ -201,6 +201,7 @@ class ExperimentConfig:
     seed: int = 0
     data_dir: str = "data"
     verbose: bool = False
+    jobs: int = 0  # worker processes for the missions stage (0: one per CPU core); results do not depend on it
     scene: SceneConfig = field(default_factory=SceneConfig)
     mission: MissionConfig = field(default_factory=MissionConfig)
     llm: LLMConfig = field(default_factory=LLMConfig)
@@ -212,6 +213,9 @@ class ExperimentConfig:
         self.validate()
 
     def validate(self) -> None:
+        if isinstance(self.jobs, bool) or not isinstance(self.jobs, int) or self.jobs < 0:
+            raise ConfigError(f"config key 'jobs' must be an integer >= 0 (0: one worker per CPU core), "
+                              f"got {self.jobs!r}")
         for group in (self.scene, self.mission, self.llm, self.planner, self.sim, self.metrics):
             group.validate()
 

@@ -14,6 +14,7 @@ Layout under ``data_dir`` (see DESIGN.md):
 
 from __future__ import annotations
 
+import json
 import logging
 from collections.abc import Iterable
 from pathlib import Path
@@ -111,40 +112,138 @@ def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> No
 
 
 # --------------------------------------------------------------------------------------------
+class _MissionWorker:
+    """What running missions needs once per process: the config, an LLM client, the robot model,
+    and the scenes, grids and candidates already loaded (by scene id)."""
+
+    def __init__(self, cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
+                 prov: dict, call_log: Path) -> None:
+        from interllm.sim.kinematics import RobotKinematics
+
+        self.cfg, self.scenes_dir, self.candidates_dir, self.out_dir, self.prov = (
+            cfg, Path(scenes_dir), Path(candidates_dir), Path(out_dir), prov)
+        self.client = _client(cfg, call_log, "missions")
+        self.robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
+        self._scenes: dict[str, tuple] = {}
+
+    def scene(self, sid: str) -> tuple:
+        if sid not in self._scenes:
+            from interllm.scene.grid import rasterize
+
+            scene, missions = _load_scene_and_missions(self.scenes_dir, sid, self.cfg)
+            g = self.cfg.scene.grid_resolution, self.cfg.sim.robot_radius
+            grids = {"presumed": rasterize(scene, *g, "presumed"), "true": rasterize(scene, *g, "true")}
+            self._scenes[sid] = (scene, {m.id: m for m in missions}, grids,
+                                 read_json(self.candidates_dir / f"{sid}.json"))
+        return self._scenes[sid]
+
+    def run(self, planner: str, sid: str, mission_id: str) -> None:
+        from interllm.planners.runner import run_mission
+        from interllm.record import McapRecorder
+
+        scene, missions, grids, cands = self.scene(sid)
+        mission = missions[mission_id]
+        if mission_id not in cands:
+            raise KeyError(f"{self.candidates_dir / (sid + '.json')} has no candidates for mission {mission_id!r} "
+                           f"(it has {sorted(cands)}): rerun the candidates stage (dvc repro candidates)")
+        d = self.out_dir / planner / sid
+        d.mkdir(parents=True, exist_ok=True)
+        meta = {"planner": planner, "scene": sid, "mission": mission_id, **self.prov}
+        c = self.client.with_context(planner=planner, scene=sid, mission=mission_id)
+        with McapRecorder(d / f"{mission_id}.mcap", scene, meta, grids=grids, robot=self.robot) as rec:
+            record = run_mission(planner, scene, mission, cands[mission_id], c, self.cfg, rec)
+        write_json(d / f"{mission_id}.json", record)
+
+
+_WORKER: _MissionWorker | None = None  # the worker process's state (see _init_worker)
+
+
+def _init_worker(*args) -> None:
+    global _WORKER
+    _WORKER = _MissionWorker(*args)
+
+
+def _run_in_worker(job: tuple[str, str, str]) -> None:
+    assert _WORKER is not None, "_init_worker did not run in this process"
+    _WORKER.run(*job)
+
+
+def _merge_call_logs(parts: list[Path], out: Path, jobs: list[tuple[str, str, str]]) -> None:
+    """Join the workers' call logs into one, in job order (then each worker's own order)."""
+    order = {(p, s, m): k for k, (p, s, m) in enumerate(jobs)}
+    rows = []
+    for part in parts:
+        if not part.is_file():
+            continue
+        for n, line in enumerate(part.read_text(encoding="utf-8").splitlines()):
+            if line.strip():
+                r = json.loads(line)
+                key = order.get((r.get("planner"), r.get("scene"), r.get("mission")), len(jobs))
+                rows.append((key, n, line))
+    atomic_write_text(out, "".join(line + "\n" for _, _, line in sorted(rows)))
+    for part in parts:
+        part.unlink(missing_ok=True)
+
+
 def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
                  resolved_config: dict | None = None) -> None:
-    """Every planner on every mission: MuJoCo execution, MCAP logs and mission records."""
-    from interllm.planners.runner import run_mission
-    from interllm.record import McapRecorder
-    from interllm.scene.grid import rasterize
-    from interllm.sim.kinematics import RobotKinematics
+    """Every planner on every mission: MuJoCo execution, MCAP logs and mission records.
+
+    Runs in ``cfg.jobs`` worker processes (0: one per CPU core). Every run's files depend only on
+    its own inputs, so the outputs are the same for any number of workers; the LLM call log is
+    merged in job order.
+    """
+    import concurrent.futures as cf
+    import multiprocessing
+    import os
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     prov = provenance(cfg, resolved_config)
     write_json(out_dir / "provenance.json", prov)
-    client = _client(cfg, out_dir / "llm_calls.jsonl", "missions")
-    robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
-    try:
-        jobs = []
-        for sid in scene_ids(scenes_dir):
-            scene, missions = _load_scene_and_missions(scenes_dir, sid, cfg)
-            cands = read_json(Path(candidates_dir) / f"{sid}.json")
-            for m in missions:
-                for p in cfg.planner.names:
-                    jobs.append((p, sid, scene, m, cands[m.id]))
-        for planner, sid, scene, mission, cands in progress(jobs, "missions", total=len(jobs)):
-            d = out_dir / planner / sid
-            d.mkdir(parents=True, exist_ok=True)
-            grids = {"presumed": rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, "presumed"),
-                     "true": rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, "true")}
-            meta = {"planner": planner, "scene": sid, "mission": mission.id, **prov}
-            c = client.with_context(planner=planner, scene=sid, mission=mission.id)
-            with McapRecorder(d / f"{mission.id}.mcap", scene, meta, grids=grids, robot=robot) as rec:
-                record = run_mission(planner, scene, mission, cands, c, cfg, rec)
-            write_json(d / f"{mission.id}.json", record)
-    finally:
-        client.close()
+    jobs = [(p, sid, m.id) for sid in scene_ids(scenes_dir)
+            for m in _load_scene_and_missions(scenes_dir, sid, cfg)[1] for p in cfg.planner.names]
+    n_workers = min(cfg.jobs or os.cpu_count() or 1, len(jobs))
+    call_log = out_dir / "llm_calls.jsonl"
+    if n_workers <= 1:
+        worker = _MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log)
+        try:
+            for job in progress(jobs, "missions", total=len(jobs)):
+                try:
+                    worker.run(*job)
+                except Exception as e:
+                    raise RuntimeError(_failed(job, e)) from e
+        finally:
+            worker.client.close()
+        return
+    parts = [out_dir / f".llm_calls.worker{k}.jsonl" for k in range(n_workers)]
+    ctx = multiprocessing.get_context("spawn")  # no fork of a parent with threads (progress bar)
+    ids = ctx.Queue()
+    for part in parts:
+        ids.put(part)
+    with cf.ProcessPoolExecutor(n_workers, mp_context=ctx, initializer=_init_worker_part,
+                                initargs=(ids, cfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
+        futures = {pool.submit(_run_in_worker, job): job for job in jobs}
+        try:
+            for fut in progress(cf.as_completed(futures), f"missions ({n_workers} workers)", total=len(jobs)):
+                fut.result()
+        except BaseException as e:
+            pool.shutdown(cancel_futures=True)
+            job = next((j for f, j in futures.items() if f.done() and not f.cancelled() and f.exception()), None)
+            if job is not None and not isinstance(e, KeyboardInterrupt):
+                raise RuntimeError(_failed(job, e)) from e
+            raise
+    _merge_call_logs(parts, call_log, jobs)
+
+
+def _failed(job: tuple[str, str, str], e: BaseException) -> str:
+    return (f"missions stage: planner {job[0]!r} on scene {job[1]!r} mission {job[2]!r} failed: "
+            f"{type(e).__name__}: {e} (its run log, if any, is data/runs/{job[0]}/{job[1]}/{job[2]}.mcap)")
+
+
+def _init_worker_part(ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:
+    """Worker initializer: take a call-log file of its own, then set up the worker state."""
+    _init_worker(cfg, scenes_dir, candidates_dir, out_dir, prov, ids.get())
 
 
 # --------------------------------------------------------------------------------------------

@@ -44,7 +44,8 @@ def quick_repo(tmp_path_factory):
     repo = tmp_path_factory.mktemp("quick")
     _copy_tree(repo)
     env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}",
-           "INTERLLM_PROGRESS": "0", "DVC_NO_ANALYTICS": "1"}
+           "INTERLLM_PROGRESS": "0", "DVC_NO_ANALYTICS": "1",
+           "INTERLLM_IMPORTS_LOG": str(tmp_path_factory.mktemp("imports") / "imports.jsonl")}
     _run(["git", "init", "-q"], repo, env)
     _run(["git", "-c", "user.email=t@t", "-c", "user.name=t", "add", "-A"], repo, env)
     _run(["git", "-c", "user.email=t@t", "-c", "user.name=t", "commit", "-qm", "copy"], repo, env)
@@ -67,6 +68,24 @@ def test_quick_produces_every_artifact(quick_repo):
     assert metrics, "metrics.json is empty"
     assert (d / "report" / "report.html").stat().st_size > 0
     assert (d / "runs" / "provenance.json").is_file()
+
+
+def test_every_module_a_stage_loads_is_among_its_dvc_deps(quick_repo):
+    """Otherwise DVC would call a stage up to date after a change to code it runs."""
+    import yaml
+
+    repo, env, _ = quick_repo
+    stages = yaml.safe_load((repo / "dvc.yaml").read_text())["stages"]
+    seen = {}
+    for line in Path(env["INTERLLM_IMPORTS_LOG"]).read_text().splitlines():
+        r = json.loads(line)
+        seen[r["stage"]] = r["modules"]
+    assert set(seen) == set(stages)  # every stage ran and logged
+    for stage, modules in seen.items():
+        deps = [d.rstrip("/") for d in stages[stage]["deps"]]
+        missing = [m for m in modules if not any(m == d or m.startswith(d + "/") for d in deps)]
+        assert not missing, f"dvc.yaml stage {stage!r} runs {missing} but does not list them under deps"
+        assert f"pipeline/{stage}.py" in modules
 
 
 def test_the_real_model_answered(quick_repo):

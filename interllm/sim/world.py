@@ -67,6 +67,13 @@ class World:
         # calls free never touches a wall or furniture (door leaves are what the map misses).
         self.contact_radius = self.cfg.robot_radius - self.resolution * math.sqrt(0.5) - 1e-3
         m.geom_size[self.base_geom][0] = self.contact_radius
+        # The house model is only asked for the base's contacts (base_contacts); objects resting on
+        # furniture and the arm would otherwise add contacts to every mj_collision for nothing.
+        static = {"wall", "door", "furniture", "floor"}
+        for g in range(m.ngeom):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+            if g != self.base_geom and name.partition("/")[0] not in static:
+                m.geom_contype[g] = m.geom_conaffinity[g] = 0
         # static obstacles the base may hit: geom id -> (kind, scene id)
         self.obstacle_geoms: dict[int, tuple[str, str]] = {}
         for g in range(m.ngeom):
@@ -164,18 +171,18 @@ class World:
         """Contacts of the robot base with walls / door leaves / furniture at the current
         configuration: (geom id, contact point [m], kind, scene id). Call after ``forward()``."""
         mujoco.mj_collision(self.model, self.data)
-        out = []
+        n = self.data.ncon
+        if n == 0:
+            return []
         c = self.data.contact
-        for i in range(self.data.ncon):
-            g1, g2 = int(c.geom1[i]), int(c.geom2[i])
-            if g1 == self.base_geom and g2 in self.obstacle_geoms:
-                other = g2
-            elif g2 == self.base_geom and g1 in self.obstacle_geoms:
-                other = g1
-            else:
-                continue
-            kind, sid = self.obstacle_geoms[other]
-            out.append((other, c.pos[i].copy(), kind, sid))
+        g1, g2 = c.geom1[:n], c.geom2[:n]  # most contacts are objects resting on furniture: filter in numpy
+        hit = np.flatnonzero((g1 == self.base_geom) | (g2 == self.base_geom))
+        out = []
+        for i in hit.tolist():
+            other = int(g2[i]) if int(g1[i]) == self.base_geom else int(g1[i])
+            if other in self.obstacle_geoms:
+                kind, sid = self.obstacle_geoms[other]
+                out.append((other, c.pos[i].copy(), kind, sid))
         return out
 
     def arm_joint_names(self) -> tuple[str, ...]:

@@ -1,0 +1,76 @@
+"""The missions stage gives the same runs in one process and in worker processes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from interllm.config import from_dict
+from interllm.experiment import run_candidates, run_missions, run_scenes
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _messages(p: Path):
+    with open(p, "rb") as f:
+        r = make_reader(f)
+        return ([(c.topic, m.log_time, m.sequence, m.data) for _, c, m in r.iter_messages(log_time_order=False)],
+                {m.name: dict(m.metadata) for m in r.iter_metadata()})
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """Scene 0 and its first mission of the default experiment, candidates from the committed cache."""
+    root = tmp_path_factory.mktemp("par")
+    cfg = from_dict({"scene": {"n_scenes": 1}, "mission": {"limit_missions": 1},
+                     "llm": {"cache_mode": "replay", "cache_dir": str(ROOT / "data" / "llm_cache")}})
+    run_scenes(cfg, root / "scenes")
+    run_candidates(cfg, root / "scenes", root / "candidates")
+    return root, cfg
+
+
+def test_one_or_two_workers_write_the_same_runs(inputs, monkeypatch):
+    monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    root, cfg = inputs
+    outs = {}
+    for jobs in (1, 2):
+        cfg.jobs = jobs
+        run_missions(cfg, root / "scenes", root / "candidates", root / f"runs{jobs}")
+        outs[jobs] = root / f"runs{jobs}"
+    one, two = outs[1], outs[2]
+    files = sorted(p.relative_to(one) for p in one.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(two) for p in two.rglob("*") if p.is_file())  # no worker leftovers
+    assert len([f for f in files if f.suffix == ".mcap"]) == 3
+    for f in files:
+        if f.suffix == ".json" and f.name != "provenance.json":
+            assert (one / f).read_bytes() == (two / f).read_bytes(), f
+        elif f.suffix == ".mcap":
+            (ma, da), (mb, db) = _messages(one / f), _messages(two / f)
+            assert ma == mb, f
+            assert da["end"] == db["end"]
+            ca, cb = json.loads(da["run"].pop("config")), json.loads(db["run"].pop("config"))
+            assert (ca.pop("jobs"), cb.pop("jobs")) == (1, 2) and ca == cb  # only the worker count differs
+            assert da["run"] == db["run"]
+
+    def calls(d):
+        return [{k: v for k, v in json.loads(line).items() if k != "latency"}
+                for line in (d / "llm_calls.jsonl").read_text().splitlines()]
+
+    assert calls(one) == calls(two)  # merged in job order
+
+
+def test_a_failing_run_names_the_job(inputs, monkeypatch, tmp_path):
+    monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    root, cfg = inputs
+    cands = tmp_path / "candidates"
+    cands.mkdir()
+    for p in (root / "candidates").glob("*.json"):
+        (cands / p.name).write_text("{}")  # a candidates file without this mission
+    for jobs in (1, 2):
+        cfg.jobs = jobs
+        with pytest.raises(RuntimeError, match=r"planner '\w+' on scene 'paper_s0000' mission 'm000' failed.*"
+                                               r"rerun the candidates stage"):
+            run_missions(cfg, root / "scenes", cands, tmp_path / f"runs{jobs}")
