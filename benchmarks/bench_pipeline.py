@@ -2,6 +2,11 @@
 
     .venv/bin/python benchmarks/bench_pipeline.py                    # the default experiment (paper)
     .venv/bin/python benchmarks/bench_pipeline.py experiment=quick   # any Hydra overrides
+    .venv/bin/python benchmarks/bench_pipeline.py --warm             # committed cache only
+
+--warm skips the cold run: it replays the committed LLM cache (data/llm_cache, read-only) and
+compares the missions stage in one process (jobs=1) with worker processes (jobs=0: one per
+core), printing per-stage times, their ratio and whether metrics.json is byte-identical.
 
 Runs every stage (scenes, candidates, missions, aggregate, report) in a temporary folder twice:
 first with an empty LLM cache (every answer comes from the model), then again from the cache the
@@ -45,7 +50,27 @@ def run_once(cfg, data: Path) -> dict[str, float]:
     return t
 
 
+def warm_only(argv: list[str]) -> None:
+    import os
+
+    cfg = OmegaConf.to_object(compose(["llm.cache_mode=replay", *argv]))
+    cfg.llm.cache_dir = str(Path(__file__).resolve().parent.parent / "data" / "llm_cache")
+    times, metrics = {}, {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for jobs in (1, 0):
+            cfg.jobs = jobs
+            times[jobs] = run_once(cfg, Path(tmp) / f"jobs{jobs}")
+            metrics[jobs] = (Path(tmp) / f"jobs{jobs}" / "metrics" / "metrics.json").read_bytes()
+    print(f"experiment={cfg.experiment}  warm (committed cache, replay)  cores={os.cpu_count()}")
+    print(f"{'stage':<12}{'jobs=1 [s]':>12}{'jobs=0 [s]':>12}{'speed-up':>10}")
+    for k in times[1]:
+        print(f"{k:<12}{times[1][k]:>12.1f}{times[0][k]:>12.1f}{times[1][k] / max(times[0][k], 1e-9):>10.2f}")
+    print(f"metrics.json byte-identical jobs=1 vs jobs=0: {metrics[1] == metrics[0]}")
+
+
 def main(argv: list[str]) -> None:
+    if "--warm" in argv:
+        return warm_only([a for a in argv if a != "--warm"])
     cfg = OmegaConf.to_object(compose(argv))
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
