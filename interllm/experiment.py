@@ -164,8 +164,18 @@ def _init_worker(*args) -> None:
 
 
 def _run_in_worker(job: tuple[str, str, str]) -> None:
+    """Run one job in a worker; a failure comes back as a RuntimeError naming the job, with the
+    worker's traceback (the original exception may not survive pickling to the parent)."""
+    import traceback
+
+    from interllm.provenance import log_loaded_modules
+
     assert _WORKER is not None, "_init_worker did not run in this process"
-    _WORKER.run(*job)
+    try:
+        _WORKER.run(*job)
+    except Exception as e:
+        raise RuntimeError(_failed(job, e) + "\n" + traceback.format_exc()) from None
+    log_loaded_modules("missions")
 
 
 def _merge_call_logs(parts: list[Path], out: Path, jobs: list[tuple[str, str, str]]) -> None:
@@ -194,6 +204,7 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     merged in job order.
     """
     import concurrent.futures as cf
+    import dataclasses
     import multiprocessing
     import os
 
@@ -205,6 +216,9 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
             for m in _load_scene_and_missions(scenes_dir, sid, cfg)[1] for p in cfg.planner.names]
     n_workers = min(cfg.jobs or os.cpu_count() or 1, len(jobs))
     call_log = out_dir / "llm_calls.jsonl"
+    parts = [out_dir / f".llm_calls.worker{k}.jsonl" for k in range(max(n_workers, 1))]
+    for f in (call_log, *parts):  # a fresh log, whatever an earlier (killed) run left here
+        f.unlink(missing_ok=True)
     if n_workers <= 1:
         worker = _MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log)
         try:
@@ -216,24 +230,27 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
         finally:
             worker.client.close()
         return
-    parts = [out_dir / f".llm_calls.worker{k}.jsonl" for k in range(n_workers)]
+    # each worker's model gets its share of the LLM threads (llama.cpp's results do not depend on
+    # the thread count; oversubscribed threads only spin)
+    wcfg = dataclasses.replace(cfg, llm=dataclasses.replace(cfg.llm, n_threads=max(1, cfg.llm.n_threads // n_workers)))
     ctx = multiprocessing.get_context("spawn")  # no fork of a parent with threads (progress bar)
     ids = ctx.Queue()
     for part in parts:
         ids.put(part)
     with cf.ProcessPoolExecutor(n_workers, mp_context=ctx, initializer=_init_worker_part,
-                                initargs=(ids, cfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
+                                initargs=(ids, wcfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
         futures = {pool.submit(_run_in_worker, job): job for job in jobs}
         try:
             for fut in progress(cf.as_completed(futures), f"missions ({n_workers} workers)", total=len(jobs)):
-                fut.result()
-        except BaseException as e:
+                try:
+                    fut.result()
+                except cf.process.BrokenProcessPool as e:  # a worker died (killed, out of memory)
+                    raise RuntimeError(f"{_failed(futures[fut], e)}; a worker process died") from e
+        except BaseException:
             pool.shutdown(cancel_futures=True)
-            job = next((j for f, j in futures.items() if f.done() and not f.cancelled() and f.exception()), None)
-            if job is not None and not isinstance(e, KeyboardInterrupt):
-                raise RuntimeError(_failed(job, e)) from e
             raise
-    _merge_call_logs(parts, call_log, jobs)
+        finally:
+            _merge_call_logs(parts, call_log, jobs)  # also after a failure: the calls made so far
 
 
 def _failed(job: tuple[str, str, str], e: BaseException) -> str:

@@ -12,6 +12,7 @@ from pathlib import Path
 import yaml
 
 from interllm.config import ConfigError, ExperimentConfig, from_dict
+from interllm.provenance import log_loaded_modules
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -45,25 +46,4 @@ def stage_main(name: str, body: Callable[[ExperimentConfig, dict, Path], None]) 
     if not data.is_absolute():
         data = ROOT / data
     body(cfg, raw, data)
-    _log_imports(name)
-
-
-def _log_imports(stage: str) -> None:
-    """With INTERLLM_IMPORTS_LOG=<file>, append {"stage", "modules"}: the repository's source files
-    this stage loaded. tests/test_pipeline_e2e.py checks they are all among the stage's dvc.yaml
-    deps, so that DVC reruns a stage whenever code it runs changes."""
-    import json
-    import os
-
-    out = os.environ.get("INTERLLM_IMPORTS_LOG")
-    if not out:
-        return
-    files = set()
-    for mod in list(sys.modules.values()):
-        f = getattr(mod, "__file__", None)
-        if f and Path(f).resolve().is_relative_to(ROOT) and Path(f).suffix == ".py":
-            rel = Path(f).resolve().relative_to(ROOT)
-            if rel.parts[0] in ("interllm", "pipeline"):
-                files.add(rel.as_posix())
-    with open(out, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({"stage": stage, "modules": sorted(files)}) + "\n")
+    log_loaded_modules(name)

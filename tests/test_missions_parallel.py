@@ -62,15 +62,16 @@ def test_one_or_two_workers_write_the_same_runs(inputs, monkeypatch):
     assert calls(one) == calls(two)  # merged in job order
 
 
-def test_a_failing_run_names_the_job(inputs, monkeypatch, tmp_path):
+def test_a_failing_run_names_the_job_and_keeps_the_call_log(inputs, monkeypatch, tmp_path):
+    """Mission m001 has no candidates (they were made for m000 only): its runs fail, m000's do not."""
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")
     root, cfg = inputs
-    cands = tmp_path / "candidates"
-    cands.mkdir()
-    for p in (root / "candidates").glob("*.json"):
-        (cands / p.name).write_text("{}")  # a candidates file without this mission
+    monkeypatch.setattr(cfg.mission, "limit_missions", 2)
     for jobs in (1, 2):
-        cfg.jobs = jobs
-        with pytest.raises(RuntimeError, match=r"planner '\w+' on scene 'paper_s0000' mission 'm000' failed.*"
-                                               r"rerun the candidates stage"):
-            run_missions(cfg, root / "scenes", cands, tmp_path / f"runs{jobs}")
+        monkeypatch.setattr(cfg, "jobs", jobs)
+        out = tmp_path / f"runs{jobs}"
+        with pytest.raises(RuntimeError, match=r"planner '(inter_llm|sayplan|moma_llm)' on scene 'paper_s0000' "
+                                               r"mission 'm001' failed: KeyError: .*rerun the candidates stage"):
+            run_missions(cfg, root / "scenes", root / "candidates", out)
+        assert (out / "llm_calls.jsonl").is_file()  # merged even after the failure
+        assert not list(out.glob(".llm_calls.worker*"))

@@ -55,7 +55,7 @@ def test_channels_schemas_and_counts(run_file):
     run = read_run(path)
     assert run.complete and run.stopped_at is None and run.status == "ok"
     n_nav = sum(1 for r, _ in acts if r.action.kind == "navigate")
-    expected = {"/scene": 1, "/grid/presumed": 1, "/grid/true": 1, "/tf": N * S, "/joint_states": N * S,
+    expected = {"/scene": 1, "/scene/objects": 1, "/grid/presumed": 1, "/grid/true": 1, "/tf": N * S, "/joint_states": N * S,
                 "/path/presumed": n_nav, "/path/driven": n_nav, "/actions": N, "/log": N,
                 "/planner/candidates": N, "/metrics/object": N}
     assert run.counts == expected
@@ -130,8 +130,14 @@ def test_scene_update_cubes_by_hand(run_file):
     msgs, _ = _raw(path)
     su = SceneUpdate.FromString(next(m.data for t, _, m in msgs if t == "/scene"))
     ents = {e.id: e for e in su.entities}
-    # 2 walls + 1 door leaf (door_2 fully open has none) + 2 furniture + 2 objects
-    assert len(ents) == 7 and "door/door_2" not in ents
+    # 2 walls + 1 door leaf (door_2 fully open has none) + 2 furniture; objects are on /scene/objects
+    assert len(ents) == 5 and "door/door_2" not in ents
+    objs = SceneUpdate.FromString(next(m.data for t, _, m in msgs if t == "/scene/objects"))
+    book = {e.id: e for e in objs.entities}["object/book_1"]
+    assert book.frame_id == "world" and book.frame_locked
+    c = book.cubes[0]
+    assert (c.pose.position.x, c.pose.position.y, c.pose.position.z) == (6.4, 3.1, 0.52)
+    assert (round(c.size.x, 6), round(c.size.y, 6), round(c.size.z, 6)) == (0.2, 0.15, 0.04)
     bed = ents["furniture/bed_1"].cubes[0]
     assert (bed.pose.position.x, bed.pose.position.y, bed.pose.position.z) == (6.5, 3.0, 0.25)
     assert (bed.size.x, bed.size.y, bed.size.z) == (1.5, 1.8, 0.5)

@@ -157,15 +157,17 @@ def test_tf_is_sparse_and_its_chain_puts_the_gripper_where_mujoco_does(carried, 
         np.testing.assert_allclose(r, want_r, atol=1e-6)
 
 
-def test_scene_updates_carry_the_object_and_put_it_down(carried, kin):
+def test_object_events_carry_the_object_and_put_it_down(carried, kin):
     path, results, w = carried
     run = read_run(path)
     assert [(m.object, m.frame) for m in run.object_moves] == [("cup_1", GRIP_FRAME), ("cup_1", "world")]
     grasp, release = run.object_moves
     pickup, place = results[1], results[3]
+    assert (grasp.t, grasp.position) == (pytest.approx(pickup.object_events[0].t, abs=1e-9),
+                                         pickup.object_events[0].position)  # exact through JSON
     assert pickup.t_start < grasp.t < pickup.t_start + pickup.time
     assert place.t_start < release.t < place.t_start + place.time
-    assert release.position == pytest.approx(w.scene.objects["cup_1"].position, abs=1e-12)
+    assert release.position == tuple(w.scene.objects["cup_1"].position)
     assert grasp.size == pytest.approx(house().objects["cup_1"].size)
     # the held pose composed with the logged /tf chain at the grasp is where the cup stood
     chain = []
@@ -176,12 +178,60 @@ def test_scene_updates_carry_the_object_and_put_it_down(carried, kin):
     chain.append((grasp.position, grasp.quaternion))
     p, _ = _compose(chain)
     np.testing.assert_allclose(p, house().objects["cup_1"].position, atol=1e-6)
+    # /scene/objects: the whole object state at t=0, at the grasp and at the release
+    states = [SceneUpdate.FromString(m.data) for m in _messages(path, "/scene/objects")]
+    assert len(states) == 3 and all(len(s.entities) == len(house().objects) for s in states)
+    cup = [{e.id: e for e in s.entities}["object/cup_1"] for s in states]
+    assert [e.frame_id for e in cup] == ["world", GRIP_FRAME, "world"]
+    assert cup[2].cubes[0].pose.position.x == release.position[0]
     # the initial /scene draws the robot's geoms in frames that /tf moves
     first = SceneUpdate.FromString(_messages(path, "/scene")[0].data)
     robot = [e for e in first.entities if any(kv.key == "kind" and kv.value == "robot" for kv in e.metadata)]
     assert len(robot) == len(kin.visuals()) == len(run.robot_visuals)
     assert {e.frame_id for e in robot} <= set(run.frames)
     assert all(e.frame_locked for e in robot)
+    assert not any(e.id.startswith("object/") for e in first.entities)
+
+
+def test_without_a_robot_model_a_held_object_is_left_out_of_the_drawing(carried, tmp_path):
+    _, results, _ = carried
+    with McapRecorder(tmp_path / "norobot.mcap", house(), {}) as rec:
+        for r in results:
+            rec.action(r, {})
+    states = [SceneUpdate.FromString(m.data) for m in _messages(tmp_path / "norobot.mcap", "/scene/objects")]
+    assert [sorted(e.id for e in s.entities) for s in states] == [["object/apple_1", "object/cup_1"],
+                                                                   ["object/apple_1"],
+                                                                   ["object/apple_1", "object/cup_1"]]
+    run = read_run(tmp_path / "norobot.mcap")
+    assert [m.frame for m in run.object_moves] == [GRIP_FRAME, "world"]  # the events are still exact
+    out = replay(tmp_path / "norobot.mcap", save=str(tmp_path / "norobot.rrd"))  # no grip frame: no crash
+    assert out[0].stat().st_size > 0
+
+
+def test_an_event_for_an_unknown_object_writes_nothing_of_the_action(tmp_path):
+    from interllm.sim.results import ObjectEvent
+
+    r, ctx = make_actions(1, 5)[0]
+    r.object_events = [ObjectEvent(1.0, "ghost_1", "world", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))]
+    with pytest.raises(ValueError, match="ghost_1"), McapRecorder(tmp_path / "g.mcap", make_scene(), {}) as rec:
+        rec.action(r, ctx)
+    run = read_run(tmp_path / "g.mcap")
+    assert run.status == "error" and run.counts.get("/joint_states", 0) == 0 and not run.actions
+
+
+def test_signed_zero_and_infinite_yaw_are_logged_as_given(tmp_path):
+    from interllm.record.mcap_writer import dumps
+
+    r, ctx = make_actions(1, 4)[0]
+    r.trajectory.base = np.array([[0.0, 1.0, 0.0], [-0.0, 1.0, 0.0], [-0.0, 1.0, float("inf")], [1.0, 1.0, 0.5]])
+    with McapRecorder(tmp_path / "z.mcap", make_scene(), {}) as rec:
+        rec.action(r, ctx)
+    js = [json.loads(m.data) for m in _messages(tmp_path / "z.mcap", "/joint_states")]
+    raw = [m.data for m in _messages(tmp_path / "z.mcap", "/joint_states")]
+    assert [dumps(d).encode() for d in js] == raw
+    assert math.copysign(1.0, js[1]["base"][0]) == -1.0 and math.isinf(js[2]["base"][2])
+    tfs = [FrameTransforms.FromString(m.data) for m in _messages(tmp_path / "z.mcap", "/tf")]
+    assert len(tfs) == 3  # the sample with an infinite yaw has no transform
 
 
 def test_recorder_rejects_a_trajectory_that_does_not_fit_the_robot(tmp_path, kin):

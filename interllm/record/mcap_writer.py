@@ -13,11 +13,15 @@ the stream flushed to the OS, so a SIGKILL loses at most the events logged since
 Channels (all times are simulated mission time, ``log_time = publish_time = round(t * 1e9)`` ns,
 clamped to be non-decreasing per channel):
 
-- ``/scene``          foxglove.SceneUpdate at t=0: walls, door leaves, furniture, objects as cubes
-                      and, with a ``robot`` model, the robot's links as primitives locked to their
-                      frames; then one update per grasp (the object re-parented to the ``grip``
-                      frame, so viewers carry it with the hand) and per release (the object at its
-                      new place in the world)
+- ``/scene``          foxglove.SceneUpdate at t=0: walls, door leaves, furniture as cubes and, with
+                      a ``robot`` model, the robot's links as primitives locked to their frames
+- ``/scene/objects``  foxglove.SceneUpdate with every object, at t=0 and after every grasp and
+                      release (each message is the whole state, so a viewer that seeks shows the
+                      right one): an object lying somewhere is a cube in the world; a held one is
+                      a cube in the ``grip`` frame, so viewers carry it with the hand (without a
+                      ``robot`` model there is no grip frame and a held object is left out)
+- ``/objects/events`` JSON {"object", "frame", "position", "quaternion"} per grasp ("grip") and
+                      release ("world"): the exact poses of ``ActionResult.object_events``
 - ``/grid/<name>``    foxglove.Grid at t=0 per given grid (uint8 "occupancy": 0 free, 100 occupied)
 - ``/tf``             foxglove.FrameTransforms at every trajectory sample where something moved:
                       world -> base_link when the base pose changed, and with a ``robot`` model
@@ -79,13 +83,15 @@ OCCUPIED = 100  # grid cell value of an occupied cell (0 = free)
 
 TF_TOPIC = "/tf"
 SCENE_TOPIC = "/scene"
+OBJECTS_TOPIC = "/scene/objects"
+OBJECT_EVENTS_TOPIC = "/objects/events"
 JOINT_TOPIC = "/joint_states"
 PRESUMED_TOPIC = "/path/presumed"
 DRIVEN_TOPIC = "/path/driven"
 ACTIONS_TOPIC = "/actions"
 LOG_TOPIC = "/log"
 GRID_PREFIX = "/grid/"
-RESERVED_TOPICS = (TF_TOPIC, SCENE_TOPIC, JOINT_TOPIC, PRESUMED_TOPIC, DRIVEN_TOPIC, ACTIONS_TOPIC,
+RESERVED_TOPICS = (TF_TOPIC, SCENE_TOPIC, OBJECTS_TOPIC, OBJECT_EVENTS_TOPIC, JOINT_TOPIC, PRESUMED_TOPIC, DRIVEN_TOPIC, ACTIONS_TOPIC,
                    LOG_TOPIC)
 
 LOG_LEVELS = {"debug": Log.DEBUG, "info": Log.INFO, "warning": Log.WARNING, "warn": Log.WARNING,
@@ -152,6 +158,18 @@ JOINT_STATES_SCHEMA: dict[str, Any] = {
                    "positions": {"type": "array", "items": {"type": "number"},
                                  "description": "arm joint angles [rad]"},
                    "action": {"type": "integer", "description": "index of the action it belongs to"}},
+}
+OBJECT_EVENT_SCHEMA: dict[str, Any] = {
+    "title": "interllm.ObjectEvent",
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["object", "frame", "position", "quaternion"],
+    "properties": {"object": {"type": "string"},
+                   "frame": {"enum": ["grip", WORLD_FRAME], "description": "grip: grasped; world: released"},
+                   "position": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+                                "description": "[m] in the frame"},
+                   "quaternion": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4,
+                                  "description": "(x, y, z, w) in the frame"}},
 }
 EVENT_SCHEMA: dict[str, Any] = {"title": "interllm.Event", "type": "object",
                                 "description": "A planner event (free-form JSON object)."}
@@ -253,13 +271,27 @@ def _object_entity(e: Any, o: Any, frame: str, xyz: Sequence[float], quat: Seque
     _set_color(c.color, _COLORS["object"])
 
 
+def _objects_update(objects: dict[str, Any], state: dict[str, tuple[str, Sequence[float], Sequence[float]]],
+                    t_ns: int, frames: set[str]) -> SceneUpdate:
+    """Every object at its current (frame, position, quaternion); objects in a frame not in
+    ``frames`` are left out (a held object without a robot model)."""
+    msg = SceneUpdate()
+    for oid in sorted(state):
+        frame, xyz, quat = state[oid]
+        if frame not in frames:
+            continue
+        e = msg.entities.add()
+        e.timestamp.FromNanoseconds(t_ns)
+        _object_entity(e, objects[oid], frame, xyz, quat)
+    return msg
+
+
 def _scene_update(scene: SceneGraph, robot_visuals: Sequence[Any] = ()) -> SceneUpdate:
     msg = SceneUpdate()
     for b in scene_boxes(scene):
-        e = msg.entities.add()
         if b["kind"] == "object":
-            _object_entity(e, scene.objects[b["id"]], WORLD_FRAME, b["center"], yaw_quat(b["yaw"]))
-            continue
+            continue  # on /scene/objects
+        e = msg.entities.add()
         e.frame_id, e.id, e.frame_locked = WORLD_FRAME, f"{b['kind']}/{b['id']}", True
         _metadata(e, kind=b["kind"], category=b.get("category", b["kind"]))
         c = e.cubes.add()
@@ -407,6 +439,10 @@ class McapRecorder:
         self.robot = robot
         self._scene_id = scene.id
         self._objects = dict(scene.objects)
+        self._object_state = {o.id: (WORLD_FRAME, tuple(o.position), (0.0, 0.0, 0.0, 1.0))
+                              for o in scene.objects.values()}
+        self._frames = {WORLD_FRAME, BASE_FRAME, *(c for _, c in robot.chain)} if robot is not None \
+            else {WORLD_FRAME, BASE_FRAME}
         self._tf_base = FrameTransforms()  # reused for the base-only /tf messages
         self._tf_base_tr = self._tf_base.transforms.add()
         self._tf_base_tr.parent_frame_id, self._tf_base_tr.child_frame_id = WORLD_FRAME, BASE_FRAME
@@ -425,6 +461,7 @@ class McapRecorder:
         self._w.add_attachment(create_time=0, log_time=0, name="scene.json", media_type="application/json",
                                data=scene.to_json().encode("utf-8"))
         self._write_proto(SCENE_TOPIC, _scene_update(scene, robot.visuals() if robot is not None else ()), 0)
+        self._write_proto(OBJECTS_TOPIC, _objects_update(self._objects, self._object_state, 0, self._frames), 0)
         for name, grid in sorted((grids or {}).items()):
             self._write_proto(GRID_PREFIX + name, grid_message(grid), 0)
         self._w.flush()
@@ -507,6 +544,12 @@ class McapRecorder:
         t0 = float(result.t_start)
         t1 = t0 + max(float(result.time), 0.0)
         idx = self._n_actions
+        for ev in result.object_events:  # checked before anything of this action is written
+            if ev.object not in self._objects:
+                raise ValueError(f"action {idx} ({result.action}): object event for {ev.object!r}, which is not "
+                                 f"in scene {self._scene_id!r}")
+            if ev.frame not in ("grip", WORLD_FRAME):
+                raise ValueError(f"action {idx}: object event frame must be 'grip' or 'world', got {ev.frame!r}")
         if result.presumed_path is not None and len(result.presumed_path):
             self._write_proto(PRESUMED_TOPIC, _poses_message(result.presumed_path, to_ns(t0)), to_ns(t0))
         n = self._write_trajectory(result.trajectory, t0, idx)
@@ -532,16 +575,18 @@ class McapRecorder:
         n = len(t)
         if not np.isfinite(t).all() or (t < 0).any():
             raise ValueError(f"action {idx}: trajectory times must be finite and >= 0 s")
-        base = np.asarray(traj.base, dtype=float).reshape(n, 3)
-        joints = np.asarray(traj.joints, dtype=float).reshape(n, -1)
+        base = np.ascontiguousarray(np.asarray(traj.base, dtype=float).reshape(n, 3))
+        joints = np.ascontiguousarray(np.asarray(traj.joints, dtype=float).reshape(n, -1))
         names = list(traj.joint_names or self.joint_names)
         if len(names) != joints.shape[1]:
             names = names[:joints.shape[1]] + [f"joint_{k}" for k in range(len(names), joints.shape[1])]
         t_ns = np.round(t * 1e9).astype(np.int64).tolist()
         base_moved = np.ones(n, dtype=bool)
         arm_moved = np.ones(n, dtype=bool)
-        base_moved[1:] = (base[1:] != base[:-1]).any(axis=1)
-        arm_moved[1:] = (joints[1:] != joints[:-1]).any(axis=1)
+        # bitwise: -0.0 after 0.0 is a change of text, NaN after NaN is not
+        base_moved[1:] = (base[1:].view(np.int64) != base[:-1].view(np.int64)).any(axis=1)
+        arm_moved[1:] = (joints[1:].view(np.int64) != joints[:-1].view(np.int64)).any(axis=1)
+        base_ok = np.isfinite(base).all(axis=1).tolist()
         links = None
         if self.robot is not None and joints.shape[1]:
             if joints.shape[1] != len(self.robot.joint_names):
@@ -580,16 +625,17 @@ class McapRecorder:
             add((jch, ns, data, jseq))
             jseq += 1
             link = links.get(i) if links is not None else None
-            if moved_b[i] and link is None:  # the common case (driving): reuse one message
+            move_b = moved_b[i] and base_ok[i]  # a non-finite base pose has no transform
+            if move_b and link is None:  # the common case (driving): reuse one message
                 tr = self._tf_base_tr
                 tr.timestamp.seconds, tr.timestamp.nanos = divmod(ns, 1_000_000_000)
                 tr.translation.x, tr.translation.y = b[0], b[1]
                 tr.rotation.z, tr.rotation.w = math.sin(b[2] / 2.0), math.cos(b[2] / 2.0)
                 add((tch, ns, self._tf_base.SerializeToString(), tseq))
                 tseq += 1
-            elif moved_b[i] or link is not None:
+            elif move_b or link is not None:
                 msg = FrameTransforms()
-                if moved_b[i]:
+                if move_b:
                     tr = msg.transforms.add()
                     tr.timestamp.FromNanoseconds(ns)
                     tr.parent_frame_id, tr.child_frame_id = WORLD_FRAME, BASE_FRAME
@@ -610,17 +656,17 @@ class McapRecorder:
         return n
 
     def _write_object_events(self, events) -> None:
-        """/scene updates for grasped (drawn in the gripper frame, so it moves with the hand) and
-        released objects (drawn in the world at its new pose)."""
+        """Per grasp / release: the exact event on /objects/events and the whole object state on
+        /scene/objects."""
         for ev in events:
-            o = self._objects.get(ev.object)
-            if o is None:
-                raise ValueError(f"object event for {ev.object!r}, which is not in scene {self._scene_id!r}")
-            msg = SceneUpdate()
-            e = msg.entities.add()
-            e.timestamp.FromNanoseconds(to_ns(ev.t))
-            _object_entity(e, o, ev.frame, ev.position, ev.quaternion)
-            self._write_proto(SCENE_TOPIC, msg, to_ns(ev.t))
+            t_ns = to_ns(ev.t)
+            pos = tuple(float(v) for v in ev.position)
+            quat = tuple(float(v) for v in ev.quaternion)
+            self._write_json(OBJECT_EVENTS_TOPIC, OBJECT_EVENT_SCHEMA,
+                             {"object": ev.object, "frame": ev.frame, "position": pos, "quaternion": quat}, t_ns)
+            self._object_state[ev.object] = (ev.frame, pos, quat)
+            self._write_proto(OBJECTS_TOPIC, _objects_update(self._objects, self._object_state, t_ns, self._frames),
+                              t_ns)
 
     # ---- lifecycle ---------------------------------------------------------------------
     def close(self, status: str = "ok", error: str = "") -> Path:

@@ -8,8 +8,9 @@ and the last simulated time).
 
 Trajectory samples (``/joint_states``: base pose and arm joints, exact) are assigned to actions
 in file order: the recorder writes an action's samples right before its ``/actions`` record.
-``/tf`` is read into per-frame transform series (``RunLog.frames``) and ``/scene`` updates after
-the first into object moves (``RunLog.object_moves``: grasps and releases).
+``/tf`` is read into per-frame transform series (``RunLog.frames``), ``/objects/events`` into
+object moves (``RunLog.object_moves``: grasps and releases) and the robot's shapes from the first
+``/scene`` update (``RunLog.robot_visuals``).
 """
 
 from __future__ import annotations
@@ -40,6 +41,8 @@ from interllm.record.mcap_writer import (
     JOINT_TOPIC,
     LOG_LEVEL_NAMES,
     LOG_TOPIC,
+    OBJECT_EVENTS_TOPIC,
+    OBJECTS_TOPIC,
     OCCUPIED,
     PRESUMED_TOPIC,
     SCENE_TOPIC,
@@ -62,7 +65,8 @@ class FrameSeries:
 
 @dataclass(frozen=True)
 class ObjectMove:
-    """A /scene update of one object after t=0: grasped (frame "grip") or released (frame "world")."""
+    """An /objects/events record: an object grasped (frame "grip": its pose in the gripper frame)
+    or released (frame "world": where it was put). size from the scene attachment."""
 
     t: float
     object: str
@@ -109,7 +113,7 @@ class RunLog:
     stopped_at: str | None = None  # where a truncated file stops being readable
     summary_counts: dict[str, int] = field(default_factory=dict)  # counts from the MCAP summary
     frames: dict[str, FrameSeries] = field(default_factory=dict)  # /tf by child frame
-    object_moves: list[ObjectMove] = field(default_factory=list)  # /scene updates after t=0
+    object_moves: list[ObjectMove] = field(default_factory=list)  # /objects/events
     robot_visuals: list[RobotVisual] = field(default_factory=list)  # robot links on the first /scene
 
     @property
@@ -230,13 +234,13 @@ class _Builder:
             self._n_scene += 1
             if self._n_scene == 1:  # the initial scene: exact in "scene.json"; robot shapes only here
                 self.robot_visuals = _robot_visuals(SceneUpdate.FromString(data))
-            else:
-                for e in SceneUpdate.FromString(data).entities:
-                    if e.id.startswith("object/") and e.cubes:
-                        c = e.cubes[0]
-                        p, q = c.pose.position, c.pose.orientation
-                        self.moves.append(ObjectMove(t, e.id[len("object/"):], e.frame_id, (p.x, p.y, p.z),
-                                                     (q.x, q.y, q.z, q.w), (c.size.x, c.size.y, c.size.z)))
+        elif topic == OBJECTS_TOPIC:
+            pass  # what viewers draw; the exact events are on /objects/events
+        elif topic == OBJECT_EVENTS_TOPIC:
+            d = json.loads(data)
+            o = self.scene.objects.get(d["object"]) if self.scene is not None else None
+            self.moves.append(ObjectMove(t, d["object"], d["frame"], tuple(d["position"]), tuple(d["quaternion"]),
+                                         tuple(o.size) if o is not None else (0.0, 0.0, 0.0)))
         else:
             self.events[topic].append((t, json.loads(data)))
 

@@ -18,7 +18,7 @@ Entities (timeline ``sim_time``: simulated mission time, a duration in seconds):
   planner events (compact JSON)
 - ``costs/{navigate,pickup,place}`` and ``costs/cumulative``  Scalars of action costs at the action end
 - ``metrics/m_overall_cum``                        Scalars of the cumulative m_overall per object
-  (``/metrics/object`` events) and ``metrics/sr_obj`` of each object
+  (``/metrics/object`` events) and ``metrics/objects_fulfilled``, the running count of fulfilled objects
 - ``joints/<name>``                                Scalars of arm joint angles [rad]
 
 The blueprint shows a 3D view, the top-down 2D view, the text log and the cost plots. A
@@ -181,11 +181,13 @@ def log_run(rec, run: RunLog) -> None:
         status = "ok" if a.success else f"FAILED: {a.reason}"
         rec.log("events/actions", rr.TextLog(f"{a.action} cost={a.cost:.2f} t={a.time:.2f}s {status} {ctx}",
                                              level="INFO" if a.success else "WARN"))
+    fulfilled = 0.0
     for t, payload in run.events.get("/metrics/object", []):
         if "m_overall_cum" in payload:
+            fulfilled += float(payload.get("sr_obj", 0.0))
             rec.set_time(TIMELINE, duration=t)
             rec.log("metrics/m_overall_cum", rr.Scalars(float(payload["m_overall_cum"])))
-            rec.log("metrics/sr_obj", rr.Scalars(float(payload.get("sr_obj", 0.0))))
+            rec.log("metrics/objects_fulfilled", rr.Scalars(fulfilled))
     for t, level, msg in run.logs:
         rec.set_time(TIMELINE, duration=t)
         rec.log("log", rr.TextLog(msg, level=_RR_LEVEL.get(level, "INFO")))
@@ -256,7 +258,8 @@ def _log_objects(rec, run: RunLog, paths: dict[str, str]) -> None:
 
     objs = {o.id: {"center": tuple(o.position), "quat": (0.0, 0.0, 0.0, 1.0), "size": tuple(o.size)}
             for o in run.scene.objects.values()}  # type: ignore[union-attr]
-    held_path = f"{paths.get(GRIP_FRAME, 'world/robot')}/held"
+    grip = paths.get(GRIP_FRAME)  # None: no arm frames in the log, a held object is not drawn
+    held_path = f"{grip}/held" if grip else None
     color = _KIND_COLOR["object"]
     solid = rr.components.FillMode.Solid
 
@@ -273,13 +276,16 @@ def _log_objects(rec, run: RunLog, paths: dict[str, str]) -> None:
         if mv.frame == WORLD_FRAME:
             objs[mv.object] = {"center": mv.position, "quat": mv.quaternion, "size": mv.size}
             log_world(mv.t)
-            rec.log(held_path, rr.Clear(recursive=False))
+            if held_path:
+                rec.log(held_path, rr.Clear(recursive=False))
         else:
             objs.pop(mv.object, None)
             log_world(mv.t)
-            rec.log(held_path, rr.Boxes3D(centers=[mv.position], half_sizes=[np.asarray(mv.size) / 2],
-                                          quaternions=[rr.Quaternion(xyzw=list(mv.quaternion))], colors=[color],
-                                          labels=[mv.object], fill_mode=solid))
+            if held_path:
+                rec.log(held_path, rr.Boxes3D(
+                    centers=[mv.position], half_sizes=[np.asarray(mv.size) / 2],
+                    quaternions=[rr.Quaternion(xyzw=list(mv.quaternion))], colors=[color], labels=[mv.object],
+                    fill_mode=solid))
 
 
 def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool = False,

@@ -96,9 +96,10 @@ class RobotKinematics:
                                  "per link")
             if nj == 1:
                 j = int(m.body_jntadr[b])
-                if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE or np.any(m.jnt_pos[j] != 0):
+                if (m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE or np.any(m.jnt_pos[j] != 0)
+                        or m.qpos0[m.jnt_qposadr[j]] != 0):
                     raise ValueError(f"joint {m.joint(j).name}: RobotKinematics needs hinges through the "
-                                     "body origin (jnt_pos = 0)")
+                                     "body origin (jnt_pos = 0) with reference angle 0 (ref = 0)")
                 axis.append(m.jnt_axis[j].copy())
                 col.append(ARM_JOINTS.index(m.joint(j).name) if m.joint(j).name in qadr else -1)
             else:
