@@ -289,3 +289,13 @@ def test_trajectory_figure_from_run_logs(carried, tmp_path):
         mission_trajectories_figure({"a": path, "b": tmp_path / "other.mcap"}, tmp_path / "x.png")
     with pytest.raises(ValueError, match="no runs"):
         mission_trajectories_figure({}, tmp_path / "y.png")
+
+
+@pytest.mark.skipif(rerun_cli() is None, reason="rerun CLI not installed")
+def test_real_run_log_passes_rerun_mcap_check(carried):
+    path, _, _ = carried
+    p = run_cli("mcap", "check", str(path))
+    assert p.returncode == 0, p.stdout + p.stderr
+    rows = [ln.split() for ln in p.stdout.splitlines() if ln.split()[:1] in (["ok"], ["warn"], ["error"])]
+    assert {r[3] for r in rows} >= {"/tf", "/scene", "/scene/objects", "/objects/events", "/joint_states"}
+    assert all(r[0] == "ok" for r in rows), p.stdout
