@@ -32,8 +32,21 @@ def run(cfg: DictConfig) -> dict:
     cache = Path(typed.llm.cache_dir)
     if not cache.is_absolute():
         typed.llm.cache_dir = str(ROOT / cache)
-    out = Path(HydraConfig.get().runtime.output_dir) / "data"
-    return run_all(typed, out, resolved_config=OmegaConf.to_container(cfg, resolve=True))
+    hc = HydraConfig.get()
+    launcher = str(OmegaConf.select(hc, "launcher._target_", default="") or "")
+    if "joblib" in launcher.lower():  # the launcher already runs jobs in parallel
+        import os
+
+        n_jobs = int(OmegaConf.select(hc, "launcher.n_jobs", default=1) or 1)
+        n_jobs = (os.cpu_count() or 1) if n_jobs < 0 else n_jobs
+        if typed.jobs == 0:
+            typed.jobs = 1  # no second layer of worker processes
+        # and each job's model gets its share of the threads (llama.cpp's results do not depend on it)
+        typed.llm.n_threads = max(1, typed.llm.n_threads // max(1, n_jobs))
+    out = Path(hc.runtime.output_dir) / "data"
+    resolved = OmegaConf.to_container(cfg, resolve=True)
+    resolved["jobs"], resolved["llm"]["n_threads"] = typed.jobs, typed.llm.n_threads
+    return run_all(typed, out, resolved_config=resolved)
 
 
 @hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")

@@ -112,3 +112,23 @@ def test_format_messages_styles():
     assert format_messages(msgs, "plain") == "System: S\n\nUser: U\n\nAssistant: A\n\nUser: V\n\nAssistant:"
     with pytest.raises(ValueError, match="gemma"):
         format_messages(msgs, "xml")
+
+
+def test_answers_do_not_depend_on_the_thread_count(backend, tmp_path):
+    """Parallel stages give each process a share of llm.n_threads; that must not change a bit of
+    any score or sampled answer (llama.cpp splits work across threads, not reductions)."""
+    scene = "; ".join(f"room {i}: a table, a shelf and a chair" for i in range(8))
+    msgs = (Message("system", f"You choose objects for a household robot. Scene: {scene}."),
+            Message("user", "Command: set up a workspace. Which objects? Answer in JSON."))
+    answers = []
+    for n_threads, be in ((1, backend), (2, EmbeddedBackend(LLMConfig(n_ctx=1024, n_threads=2)))):
+        cfg = LLMConfig(cache_dir=str(tmp_path / f"c{n_threads}"), n_ctx=1024, n_threads=n_threads, cache_mode="off")
+        client = make_client(cfg, backend=be)
+        req = LLMRequest(purpose="candidates", messages=msgs, schema=SCHEMA,
+                         options=client.default_options(max_tokens=48, temperature=0.8, seed=11))
+        sc = client.score(ScoreRequest(purpose="t", prompt=f"Scene: {scene}. The laptop is most likely on the",
+                                       continuations=(" table", " shelf", " chair", " floor")))
+        answers.append((client.complete(req).text, sc.raw, sc.scores))
+        if be is not backend:
+            be.close()
+    assert answers[0] == answers[1]

@@ -1,4 +1,5 @@
-"""Hydra multirun: the same pipeline into separate job folders, and the ablation report gathers them."""
+"""Hydra multirun (joblib launcher, 2 parallel jobs): the same pipeline into separate job folders, and the
+ablation report gathers them."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ def test_multirun_m_ablation_writes_one_pipeline_per_job_and_the_report_gathers_
     sweep = tmp_path / "multirun"
     env = {**os.environ, "INTERLLM_PROGRESS": "0"}
     r = subprocess.run(
-        [sys.executable, "-m", "pipeline.run", "-m", "experiment=m_ablation", "scene=tiny",
+        [sys.executable, "-m", "pipeline.run", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
+         "experiment=m_ablation", "scene=tiny",
          "mission.n_missions=1", "planner.names=[sayplan]", "planner.M=1,2",
          f"llm.cache_dir={tmp_path / 'cache'}", f"hydra.sweep.dir={sweep}"],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
@@ -27,7 +29,9 @@ def test_multirun_m_ablation_writes_one_pipeline_per_job_and_the_report_gathers_
         assert f"M: {m}" in cfg
         metrics = json.loads((job / "data" / "metrics" / "metrics.json").read_text())
         assert "sayplan" in metrics["planners"]
-        assert (job / "data" / "runs" / "provenance.json").is_file()
+        prov = json.loads((job / "data" / "runs" / "provenance.json").read_text())
+        assert prov["config"]["jobs"] == 1  # under the joblib launcher, no second layer of worker processes
+        assert prov["config"]["llm"]["n_threads"] == 1  # 2 threads shared by 2 parallel jobs
         cands = json.loads(next((job / "data" / "candidates").glob("*.json")).read_text())
         assert all(len(c) <= m for mission in cands.values() for c in mission.values())
 
