@@ -216,6 +216,28 @@ def test_bad_input_errors(tmp_path):
         read_run(tmp_path / "junk.mcap")
 
 
+@pytest.mark.parametrize("closed", [True, False])
+def test_a_log_from_an_older_version_is_named_as_such_not_as_truncated(tmp_path, closed):
+    """Before base poses moved to /joint_states, its messages had none: say so, complete or not."""
+    from mcap.writer import Writer
+
+    from interllm.record.reader import RunLogFormatError
+
+    path = tmp_path / "old.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f, use_chunking=closed)  # unchunked: the message is on disk before any finish()
+        w.start()
+        sid = w.register_schema("joint_states", "jsonschema", b"{}")
+        ch = w.register_channel("/joint_states", "json", sid)
+        w.add_message(ch, log_time=2_000_000_000, publish_time=2_000_000_000, sequence=0,
+                      data=b'{"action": 0, "names": ["j"], "positions": [0.5]}')
+        if closed:
+            w.finish()  # else: a killed run, no summary; the streaming read handles it
+    with pytest.raises(RunLogFormatError, match=r"old\.mcap: /joint_states at t=2\.000 s has no base pose.*"
+                                                r"dvc repro --force missions"):
+        read_run(path)
+
+
 @pytest.mark.parametrize("chunk_size", [1024, 256 * 1024])
 def test_batch_message_path_writes_the_same_bytes_as_add_message(chunk_size):
     """The recorder's fast path (_BatchWriter.add_messages) against mcap's own add_message."""

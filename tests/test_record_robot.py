@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
 from test_record_helpers import make_actions, make_scene, rerun_cli, run_cli
@@ -181,6 +182,9 @@ def test_object_events_carry_the_object_and_put_it_down(carried, kin):
     # /scene/objects: the whole object state at t=0, at the grasp and at the release
     states = [SceneUpdate.FromString(m.data) for m in _messages(path, "/scene/objects")]
     assert len(states) == 3 and all(len(s.entities) == len(house().objects) for s in states)
+    # each state replaces the last one whole (viewers keep entities by id until deleted)
+    assert all([(d.type, d.timestamp.ToNanoseconds()) for d in s.deletions] ==
+               [(SceneEntityDeletion.Type.ALL, e.timestamp.ToNanoseconds())] for s in states for e in s.entities)
     cup = [{e.id: e for e in s.entities}["object/cup_1"] for s in states]
     assert [e.frame_id for e in cup] == ["world", GRIP_FRAME, "world"]
     assert cup[2].cubes[0].pose.position.x == release.position[0]
@@ -202,6 +206,7 @@ def test_without_a_robot_model_a_held_object_is_left_out_of_the_drawing(carried,
     assert [sorted(e.id for e in s.entities) for s in states] == [["object/apple_1", "object/cup_1"],
                                                                    ["object/apple_1"],
                                                                    ["object/apple_1", "object/cup_1"]]
+    assert all(s.deletions[0].type == SceneEntityDeletion.Type.ALL for s in states)  # the cup leaves the drawing
     run = read_run(tmp_path / "norobot.mcap")
     assert [m.frame for m in run.object_moves] == [GRIP_FRAME, "world"]  # the events are still exact
     out = replay(tmp_path / "norobot.mcap", save=str(tmp_path / "norobot.rrd"))  # no grip frame: no crash
@@ -234,12 +239,39 @@ def test_signed_zero_and_infinite_yaw_are_logged_as_given(tmp_path):
     assert len(tfs) == 3  # the sample with an infinite yaw has no transform
 
 
-def test_recorder_rejects_a_trajectory_that_does_not_fit_the_robot(tmp_path, kin):
-    r, ctx = make_actions(1, 5)[0]  # 3 joints, the robot has 6
-    with pytest.raises(ValueError, match="3 arm joints"), McapRecorder(tmp_path / "x.mcap", make_scene(), {},
-                                                                         robot=kin) as rec:
-        rec.action(r, ctx)
-    assert read_run(tmp_path / "x.mcap").status == "error"
+def _break_joints(r, ctx):  # 3 joints, the robot has 6
+    return "3 arm joints"
+
+
+def _break_times(r, ctx):
+    r.trajectory.t[2] = float("nan")
+    return "trajectory times must be finite"
+
+
+def _break_base(r, ctx):
+    r.trajectory.base = r.trajectory.base[:3]
+    return "trajectory base must be 5x3"
+
+
+def _break_context(r, ctx):
+    ctx["note"] = object()
+    return "not JSON serialisable"
+
+
+@pytest.mark.parametrize("breaks", [_break_joints, _break_times, _break_base, _break_context])
+def test_a_rejected_action_leaves_nothing_of_itself_in_the_log(tmp_path, kin, breaks):
+    (good, gctx), (r, ctx) = make_actions(2, 5)[1], make_actions(1, 5)[0]  # r: a navigate with a presumed path
+    good.trajectory.joints, good.trajectory.joint_names = np.zeros((5, 6)), ARM_JOINTS
+    if breaks is not _break_joints:
+        r.trajectory.joints, r.trajectory.joint_names = np.zeros((5, 6)), ARM_JOINTS
+    message = breaks(r, ctx)
+    with McapRecorder(tmp_path / "x.mcap", make_scene(), {}, robot=kin) as rec:
+        rec.action(good, gctx)
+        with pytest.raises((ValueError, TypeError), match=message):
+            rec.action(r, ctx)
+    run = read_run(tmp_path / "x.mcap")
+    assert run.status == "ok" and len(run.actions) == 1  # the log goes on after the rejected action
+    assert run.counts.get("/path/presumed", 0) == 0 and run.counts["/joint_states"] == 5
 
 
 def test_nonfinite_joint_sample_has_no_link_frames_and_round_trips(tmp_path, kin):

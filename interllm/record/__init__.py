@@ -7,8 +7,8 @@
 
 from interllm.record.api import NullRecorder, Recorder
 from interllm.record.mcap_writer import ACTION_SCHEMA, McapRecorder
-from interllm.record.reader import RunLog, read_run
+from interllm.record.reader import RunLog, RunLogFormatError, read_run
 from interllm.record.replay import replay, replay_main
 
-__all__ = ["ACTION_SCHEMA", "McapRecorder", "NullRecorder", "Recorder", "RunLog", "read_run", "replay",
-           "replay_main"]
+__all__ = ["ACTION_SCHEMA", "McapRecorder", "NullRecorder", "Recorder", "RunLog", "RunLogFormatError", "read_run",
+           "replay", "replay_main"]

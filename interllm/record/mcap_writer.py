@@ -64,6 +64,7 @@ from foxglove_schemas_protobuf.Grid_pb2 import Grid
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
 from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.opcode import Opcode
 from mcap.records import MessageIndex
@@ -73,10 +74,8 @@ from mcap_protobuf.schema import register_schema
 
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
-from interllm.sim.results import ActionResult, Trajectory
+from interllm.sim.results import BASE_FRAME, GRIP_FRAME, WORLD_FRAME, ActionResult, Trajectory
 
-WORLD_FRAME = "world"
-BASE_FRAME = "base_link"
 DOOR_HEIGHT = 2.0  # [m] drawn height of a door leaf
 DOOR_LEAF_THICKNESS = 0.04  # [m]
 OCCUPIED = 100  # grid cell value of an occupied cell (0 = free)
@@ -165,7 +164,7 @@ OBJECT_EVENT_SCHEMA: dict[str, Any] = {
     "additionalProperties": False,
     "required": ["object", "frame", "position", "quaternion"],
     "properties": {"object": {"type": "string"},
-                   "frame": {"enum": ["grip", WORLD_FRAME], "description": "grip: grasped; world: released"},
+                   "frame": {"enum": [GRIP_FRAME, WORLD_FRAME], "description": "grip: grasped; world: released"},
                    "position": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
                                 "description": "[m] in the frame"},
                    "quaternion": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4,
@@ -274,8 +273,12 @@ def _object_entity(e: Any, o: Any, frame: str, xyz: Sequence[float], quat: Seque
 def _objects_update(objects: dict[str, Any], state: dict[str, tuple[str, Sequence[float], Sequence[float]]],
                     t_ns: int, frames: set[str]) -> SceneUpdate:
     """Every object at its current (frame, position, quaternion); objects in a frame not in
-    ``frames`` are left out (a held object without a robot model)."""
+    ``frames`` are left out (a held object without a robot model). Each update first deletes every
+    entity of the topic, so that viewers (which keep entities by id) show exactly this state."""
     msg = SceneUpdate()
+    d = msg.deletions.add()
+    d.timestamp.FromNanoseconds(t_ns)
+    d.type = SceneEntityDeletion.Type.ALL
     for oid in sorted(state):
         frame, xyz, quat = state[oid]
         if frame not in frames:
@@ -543,43 +546,67 @@ class McapRecorder:
         self._check_open()
         t0 = float(result.t_start)
         t1 = t0 + max(float(result.time), 0.0)
+        t0_ns, t1_ns = to_ns(t0), to_ns(t1)
         idx = self._n_actions
-        for ev in result.object_events:  # checked before anything of this action is written
+        # everything is checked before anything of this action is written: a rejected action
+        # leaves no trace in the log (no presumed path without its /actions record)
+        for ev in result.object_events:
             if ev.object not in self._objects:
                 raise ValueError(f"action {idx} ({result.action}): object event for {ev.object!r}, which is not "
                                  f"in scene {self._scene_id!r}")
-            if ev.frame not in ("grip", WORLD_FRAME):
-                raise ValueError(f"action {idx}: object event frame must be 'grip' or 'world', got {ev.frame!r}")
+            if ev.frame not in (GRIP_FRAME, WORLD_FRAME):
+                raise ValueError(f"action {idx}: object event frame must be {GRIP_FRAME!r} or {WORLD_FRAME!r}, "
+                                 f"got {ev.frame!r}")
+            to_ns(ev.t)
+        traj = self._check_trajectory(result.trajectory, t0, idx)
+        n = 0 if traj is None else len(traj[0])
+        rec = {**result.to_record(), "context": dict(context or {}), "index": idx, "n_samples": n}
+        rec_data = dumps(rec).encode("utf-8")
         if result.presumed_path is not None and len(result.presumed_path):
-            self._write_proto(PRESUMED_TOPIC, _poses_message(result.presumed_path, to_ns(t0)), to_ns(t0))
-        n = self._write_trajectory(result.trajectory, t0, idx)
+            self._write_proto(PRESUMED_TOPIC, _poses_message(result.presumed_path, t0_ns), t0_ns)
+        if traj is not None:
+            self._write_trajectory(*traj, idx)
         self._write_object_events(result.object_events)
         if result.driven_path is not None and len(result.driven_path):
-            self._write_proto(DRIVEN_TOPIC, _poses_message(result.driven_path, to_ns(t1)), to_ns(t1))
-        rec = {**result.to_record(), "context": dict(context or {}), "index": idx, "n_samples": n}
-        self._write_json(ACTIONS_TOPIC, ACTION_SCHEMA, rec, to_ns(t1))
+            self._write_proto(DRIVEN_TOPIC, _poses_message(result.driven_path, t1_ns), t1_ns)
+        self._add(self._channel_json(ACTIONS_TOPIC, ACTION_SCHEMA), t1_ns, rec_data)
         self._n_actions += 1
         self._clock = max(self._clock, t1)
         self._w.flush()
 
-    def _write_trajectory(self, traj: Trajectory | None, t0: float, idx: int) -> int:
-        """One /joint_states message per sample (base pose + arm joints: the exact trajectory) and
-        a /tf message for every sample where something moved: world->base_link when the base pose
-        changed, the arm's link frames when the joints changed (both at an action's first sample).
-        Frame transforms hold until the next one for the same frame, as in Foxglove and rerun."""
+    def _check_trajectory(self, traj: Trajectory | None, t0: float,
+                          idx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]] | None:
+        """(times on the mission clock, base, joints, joint names) of a trajectory, checked; None
+        for no samples."""
         if traj is None or len(traj.t) == 0:
-            return 0
+            return None
         t = np.asarray(traj.t, dtype=float)
         if t[0] + 1e-9 < t0:
             t = t + t0
         n = len(t)
         if not np.isfinite(t).all() or (t < 0).any():
             raise ValueError(f"action {idx}: trajectory times must be finite and >= 0 s")
-        base = np.ascontiguousarray(np.asarray(traj.base, dtype=float).reshape(n, 3))
-        joints = np.ascontiguousarray(np.asarray(traj.joints, dtype=float).reshape(n, -1))
+        try:
+            base = np.ascontiguousarray(np.asarray(traj.base, dtype=float).reshape(n, 3))
+            joints = np.ascontiguousarray(np.asarray(traj.joints, dtype=float).reshape(n, -1))
+        except ValueError as e:
+            raise ValueError(f"action {idx}: trajectory base must be {n}x3 and joints {n}xJ for its {n} "
+                             f"times ({e})") from e
+        if self.robot is not None and joints.shape[1] and joints.shape[1] != len(self.robot.joint_names):
+            raise ValueError(f"action {idx}: trajectory has {joints.shape[1]} arm joints, the robot model "
+                             f"{len(self.robot.joint_names)} ({list(self.robot.joint_names)})")
         names = list(traj.joint_names or self.joint_names)
         if len(names) != joints.shape[1]:
             names = names[:joints.shape[1]] + [f"joint_{k}" for k in range(len(names), joints.shape[1])]
+        return t, base, joints, names
+
+    def _write_trajectory(self, t: np.ndarray, base: np.ndarray, joints: np.ndarray, names: list[str],
+                          idx: int) -> None:
+        """One /joint_states message per sample (base pose + arm joints: the exact trajectory) and
+        a /tf message for every sample where something moved: world->base_link when the base pose
+        changed, the arm's link frames when the joints changed (both at an action's first sample).
+        Frame transforms hold until the next one for the same frame, as in Foxglove and rerun."""
+        n = len(t)
         t_ns = np.round(t * 1e9).astype(np.int64).tolist()
         base_moved = np.ones(n, dtype=bool)
         arm_moved = np.ones(n, dtype=bool)
@@ -589,9 +616,6 @@ class McapRecorder:
         base_ok = np.isfinite(base).all(axis=1).tolist()
         links = None
         if self.robot is not None and joints.shape[1]:
-            if joints.shape[1] != len(self.robot.joint_names):
-                raise ValueError(f"action {idx}: trajectory has {joints.shape[1]} arm joints, the robot model "
-                                 f"{len(self.robot.joint_names)} ({list(self.robot.joint_names)})")
             rows = np.flatnonzero(arm_moved & np.isfinite(joints).all(axis=1))
             lt, lq = self.robot.link_poses(joints[rows])
             links = dict(zip(rows.tolist(), zip(lt.tolist(), lq.tolist(), strict=True), strict=True))
@@ -653,7 +677,6 @@ class McapRecorder:
         self._w.add_messages(rows)
         self._seq[jch], self._seq[tch] = jseq, tseq
         self._last_ns[jch] = self._last_ns[tch] = t_ns[-1]
-        return n
 
     def _write_object_events(self, events) -> None:
         """Per grasp / release: the exact event on /objects/events and the whole object state on

@@ -53,6 +53,10 @@ from interllm.scene.grid import OccupancyGrid
 from interllm.sim.results import ActionResult, Trajectory
 
 
+class RunLogFormatError(ValueError):
+    """A readable run log whose content this version cannot interpret (not a truncation)."""
+
+
 @dataclass
 class FrameSeries:
     """Transforms of one frame in its parent over time, as logged on /tf."""
@@ -203,6 +207,10 @@ class _Builder:
                                tr.rotation.y, tr.rotation.z, tr.rotation.w))
         elif topic == JOINT_TOPIC:
             d = json.loads(data)
+            if "base" not in d:
+                raise RunLogFormatError(f"/joint_states at t={t:.3f} s has no base pose: the log was written by an older "
+                                 f"interllm (base poses were only on /tf then); rerun the missions stage "
+                                 f"(dvc repro --force missions) to rewrite the run logs")
             self.joint_names = tuple(d["names"])
             self.joint_t.append(t)
             self.joints.append(d["positions"])
@@ -322,6 +330,8 @@ def _read_stream(path: Path, b: _Builder) -> tuple[bool, str | None]:
             elif isinstance(rec, Schema):
                 pass
             good_offset = end
+    except RunLogFormatError:
+        raise
     except Exception as e:  # noqa: BLE001 - any decoding failure ends the readable prefix
         error = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
     if footer and not error:
@@ -345,7 +355,12 @@ def read_run(path: str | os.PathLike) -> RunLog:
     try:
         counts = _read_complete(path, b)
         return b.build(True, None, counts)
+    except RunLogFormatError as e:
+        raise RunLogFormatError(f"{path}: {e}") from None
     except Exception:  # noqa: BLE001 - fall back to the streaming read below
         b = _Builder(path)
-    complete, stopped_at = _read_stream(path, b)
+    try:
+        complete, stopped_at = _read_stream(path, b)
+    except RunLogFormatError as e:
+        raise RunLogFormatError(f"{path}: {e}") from None
     return b.build(complete, stopped_at, {})

@@ -38,13 +38,13 @@ from pathlib import Path
 
 import numpy as np
 
-from interllm.record.mcap_writer import BASE_FRAME, WORLD_FRAME, scene_boxes
+from interllm.record.mcap_writer import scene_boxes
 from interllm.record.reader import RunLog, read_run
+from interllm.sim.results import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
 
 TIMELINE = "sim_time"
-GRIP_FRAME = "grip"  # interllm.sim.kinematics.GRIP_FRAME (not imported: replay needs no MuJoCo)
 ROBOT_HALF_SIZE = (0.25, 0.25, 0.2)  # [m] drawn base footprint
-_KIND_PATH = {"wall": "walls", "door": "doors", "furniture": "furniture", "object": "objects"}
+_KIND_PATH = {"wall": "walls", "door": "doors", "furniture": "furniture"}  # objects: see _log_objects
 _KIND_COLOR = {"wall": (190, 190, 185), "door": (140, 90, 45), "furniture": (115, 140, 190),
                "object": (240, 150, 40)}
 _RR_LEVEL = {"debug": "DEBUG", "info": "INFO", "warning": "WARN", "error": "ERROR", "fatal": "CRITICAL"}
@@ -118,7 +118,7 @@ def log_run(rec, run: RunLog) -> None:
     if run.scene is not None:
         boxes = scene_boxes(run.scene)
         for kind, sub in _KIND_PATH.items():
-            bs = [b for b in boxes if b["kind"] == kind and kind != "object"]
+            bs = [b for b in boxes if b["kind"] == kind]
             if not bs:
                 continue
             half = np.asarray([b["size"] for b in bs], dtype=float) / 2

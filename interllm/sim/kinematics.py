@@ -8,7 +8,7 @@ A link's pose relative to its parent depends only on its own joint angle, so
     T_parent->child(q) = (body_pos, body_quat ⊗ axis_angle(jnt_axis, q))
 
 when the hinge passes through the body origin (``jnt_pos == 0``, true for this robot and checked
-at construction). ``link_transforms`` evaluates that for many samples at once with numpy, which is
+at construction). ``link_poses`` evaluates that for many samples at once with numpy, which is
 what the MCAP recorder needs (``/tf``: world->base_link from the base pose, then this chain).
 ``visuals`` lists the robot's geoms per frame (Foxglove SceneUpdate primitives and rerun boxes /
 capsules / cylinders), so the logged robot looks like the simulated one.
@@ -25,10 +25,8 @@ import mujoco
 import numpy as np
 
 from interllm.config import SimConfig
+from interllm.sim.results import BASE_FRAME, GRIP_FRAME, wxyz_to_xyzw
 from interllm.sim.robot import ARM_JOINTS, GRIP_SITE, PREFIX, add_robot, add_robot_assets
-
-BASE_FRAME = "base_link"
-GRIP_FRAME = "grip"
 
 _GEOM_KIND = {int(mujoco.mjtGeom.mjGEOM_BOX): "box", int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
               int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule", int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere"}
@@ -49,11 +47,6 @@ def quat_mul_xyzw(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                      aw * bw - ax * bx - ay * by - az * bz], axis=-1)
 
 
-def _wxyz_to_xyzw(q) -> np.ndarray:
-    q = np.asarray(q, dtype=float)
-    return np.array([q[1], q[2], q[3], q[0]])
-
-
 @dataclass(frozen=True)
 class LinkVisual:
     """One robot geom drawn in a link frame. size: box half extents (3); cylinder / capsule
@@ -72,7 +65,7 @@ class RobotKinematics:
     """The arm's frame tree (parent frame, child frame, joint) and its forward kinematics.
 
     ``chain``: [(parent, child)] in tree order, base_link first as a parent (never a child);
-    ``joint_names``: the arm joints (ARM_JOINTS order) that ``link_transforms`` takes.
+    ``joint_names``: the arm joints (ARM_JOINTS order) that ``link_poses`` takes.
     """
 
     def __init__(self, sim_cfg: Optional[SimConfig] = None) -> None:
@@ -89,7 +82,7 @@ class RobotKinematics:
             parent = int(m.body_parentid[b])
             self.chain.append((frame_name(m.body(parent).name), frame_name(m.body(b).name)))
             pos.append(m.body_pos[b].copy())
-            quat.append(_wxyz_to_xyzw(m.body_quat[b]))
+            quat.append(wxyz_to_xyzw(m.body_quat[b]))
             nj = int(m.body_jntnum[b])
             if nj > 1:
                 raise ValueError(f"body {m.body(b).name} has {nj} joints; RobotKinematics supports one hinge "
@@ -108,7 +101,7 @@ class RobotKinematics:
         site = m.site(GRIP_SITE)
         self.chain.append((frame_name(m.body(int(m.site_bodyid[site.id])).name), GRIP_FRAME))
         pos.append(m.site_pos[site.id].copy())
-        quat.append(_wxyz_to_xyzw(m.site_quat[site.id]))
+        quat.append(wxyz_to_xyzw(m.site_quat[site.id]))
         axis.append(np.zeros(3))
         col.append(-1)
         self._pos = np.asarray(pos, dtype=float)  # [L, 3]
@@ -135,11 +128,6 @@ class RobotKinematics:
         trans = np.broadcast_to(self._pos, (n, nl, 3)).copy()
         return (trans[0], quat[0]) if one else (trans, quat)
 
-    def link_transforms(self, joints) -> list[tuple[str, str, tuple, tuple]]:
-        """[(parent, child, (x, y, z), (qx, qy, qz, qw))] for one joint sample (the recorder's ``fk``)."""
-        t, q = self.link_poses(np.asarray(joints, dtype=float).reshape(-1))
-        return [(p, c, tuple(t[i].tolist()), tuple(q[i].tolist())) for i, (p, c) in enumerate(self.chain)]
-
     def visuals(self) -> list[LinkVisual]:
         """Every visible robot geom as a LinkVisual in its body's frame (tree order)."""
         m = self.model
@@ -155,7 +143,7 @@ class RobotKinematics:
             out.append(LinkVisual(frame=frame_name(m.body(b).name), name=m.geom(g).name or f"geom_{g}",
                                   kind=kind, size=tuple(float(v) for v in size),
                                   pos=tuple(float(v) for v in m.geom_pos[g]),
-                                  quat=tuple(float(v) for v in _wxyz_to_xyzw(m.geom_quat[g])),
+                                  quat=wxyz_to_xyzw(m.geom_quat[g]),
                                   rgba=tuple(float(v) for v in m.geom_rgba[g])))
         return out
 

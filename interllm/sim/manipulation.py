@@ -39,8 +39,15 @@ import numpy as np
 
 from interllm.planning.domain import Action, State
 from interllm.sim.build import build_local_spec
-from interllm.sim.kinematics import GRIP_FRAME
-from interllm.sim.results import ActionResult, ManipulationTrial, ObjectEvent, man_cost
+from interllm.sim.results import (
+    GRIP_FRAME,
+    WORLD_FRAME,
+    ActionResult,
+    ManipulationTrial,
+    ObjectEvent,
+    man_cost,
+    wxyz_to_xyzw,
+)
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK, yaw_quat
 from interllm.sim.world import footprint_distance
 
@@ -338,7 +345,7 @@ def execute_pickup(world, action: Action) -> ActionResult:
         world.state = State(st.at_furniture, st.at_room, action.obj)
         pos, quat = world.held_offset
         res.object_events.append(ObjectEvent(t, action.obj, GRIP_FRAME, tuple(float(v) for v in pos),
-                                             (float(quat[1]), float(quat[2]), float(quat[3]), float(quat[0]))))
+                                             wxyz_to_xyzw(quat)))
 
     samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, grasp)
     world.forward()
@@ -420,7 +427,7 @@ def execute_place(world, action: Action) -> ActionResult:
         pos = (float(spot[0]), float(spot[1]), float(spot[2]))
         world.scene.move_object(action.obj, action.furniture, pos)
         world.set_object_pose(action.obj, pos)
-        res.object_events.append(ObjectEvent(t, action.obj, "world", pos, (0.0, 0.0, 0.0, 1.0)))
+        res.object_events.append(ObjectEvent(t, action.obj, WORLD_FRAME, pos, (0.0, 0.0, 0.0, 1.0)))
 
     samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, release)
     world.forward()

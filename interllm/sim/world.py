@@ -175,7 +175,7 @@ class World:
         if n == 0:
             return []
         c = self.data.contact
-        g1, g2 = c.geom1[:n], c.geom2[:n]  # most contacts are objects resting on furniture: filter in numpy
+        g1, g2 = c.geom1[:n], c.geom2[:n]  # static geoms may touch each other too: keep the base's
         hit = np.flatnonzero((g1 == self.base_geom) | (g2 == self.base_geom))
         out = []
         for i in hit.tolist():
