@@ -22,7 +22,7 @@ from pathlib import Path
 from interllm.config import ExperimentConfig
 from interllm.io import atomic_write_bytes, atomic_write_text, read_json, write_json
 from interllm.progress import progress
-from interllm.provenance import provenance
+from interllm.provenance import for_run_log, provenance
 
 log = logging.getLogger(__name__)
 
@@ -121,7 +121,7 @@ class _MissionWorker:
         from interllm.sim.kinematics import RobotKinematics
 
         self.cfg, self.scenes_dir, self.candidates_dir, self.out_dir, self.prov = (
-            cfg, Path(scenes_dir), Path(candidates_dir), Path(out_dir), prov)
+            cfg, Path(scenes_dir), Path(candidates_dir), Path(out_dir), for_run_log(prov))
         self.client = _client(cfg, call_log, "missions")
         self.robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
         self._scenes: dict[str, tuple] = {}
@@ -174,7 +174,7 @@ def _run_in_worker(job: tuple[str, str, str]) -> None:
     try:
         _WORKER.run(*job)
     except Exception as e:
-        raise RuntimeError(_failed(job, e) + "\n" + traceback.format_exc()) from None
+        raise RuntimeError(_failed(job, e, _WORKER.out_dir) + "\n" + traceback.format_exc()) from None
     log_loaded_modules("missions")
 
 
@@ -206,7 +206,6 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     import concurrent.futures as cf
     import dataclasses
     import multiprocessing
-    import os
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -214,10 +213,10 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     write_json(out_dir / "provenance.json", prov)
     jobs = [(p, sid, m.id) for sid in scene_ids(scenes_dir)
             for m in _load_scene_and_missions(scenes_dir, sid, cfg)[1] for p in cfg.planner.names]
-    n_workers = min(cfg.jobs or os.cpu_count() or 1, len(jobs))
+    n_workers = min(cfg.jobs or usable_cores(), len(jobs))
     call_log = out_dir / "llm_calls.jsonl"
     parts = [out_dir / f".llm_calls.worker{k}.jsonl" for k in range(max(n_workers, 1))]
-    for f in (call_log, *parts):  # a fresh log, whatever an earlier (killed) run left here
+    for f in (call_log, *out_dir.glob(".llm_calls.worker*.jsonl")):  # whatever a killed run left here
         f.unlink(missing_ok=True)
     if n_workers <= 1:
         worker = _MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log)
@@ -226,7 +225,7 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
                 try:
                     worker.run(*job)
                 except Exception as e:
-                    raise RuntimeError(_failed(job, e)) from e
+                    raise RuntimeError(_failed(job, e, out_dir)) from e
         finally:
             worker.client.close()
         return
@@ -244,8 +243,11 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
             for fut in progress(cf.as_completed(futures), f"missions ({n_workers} workers)", total=len(jobs)):
                 try:
                     fut.result()
-                except cf.process.BrokenProcessPool as e:  # a worker died (killed, out of memory)
-                    raise RuntimeError(f"{_failed(futures[fut], e)}; a worker process died") from e
+                except cf.process.BrokenProcessPool as e:  # every pending job sees this, not only the
+                    raise RuntimeError(                      # one whose worker died: name none of them
+                        f"missions stage: a worker process died (killed, out of memory?) while running "
+                        f"{len(jobs)} jobs in {n_workers} workers; rerun with jobs=1 to run them in one "
+                        f"process and see which one fails") from e
         except BaseException:
             pool.shutdown(cancel_futures=True)
             raise
@@ -253,9 +255,20 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
             _merge_call_logs(parts, call_log, jobs)  # also after a failure: the calls made so far
 
 
-def _failed(job: tuple[str, str, str], e: BaseException) -> str:
+def usable_cores() -> int:
+    """The cores this process may run on (CPU affinity: taskset, SLURM, containers), not the machine's."""
+    import os
+
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _failed(job: tuple[str, str, str], e: BaseException, out_dir: Path) -> str:
+    log = Path(out_dir) / job[0] / job[1] / f"{job[2]}.mcap"
     return (f"missions stage: planner {job[0]!r} on scene {job[1]!r} mission {job[2]!r} failed: "
-            f"{type(e).__name__}: {e} (its run log, if any, is data/runs/{job[0]}/{job[1]}/{job[2]}.mcap)")
+            f"{type(e).__name__}: {e} (its run log, if any: {log} or {log}.partial)")
 
 
 def _init_worker_part(ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:

@@ -57,6 +57,31 @@ def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None) -> di
     }
 
 
+# Settings that choose how a run is executed, not what it computes (tests/test_missions_parallel.py
+# and tests/test_llm_embedded.py check that results do not depend on them).
+EXECUTION_SETTINGS = ("jobs", "llm.n_threads")
+
+
+def for_run_log(prov: dict) -> dict:
+    """``prov`` without the execution settings in its config: a run log (MCAP) is then the same
+    bytes whatever worker count or thread share produced it. provenance.json keeps them."""
+    import copy
+
+    out = copy.deepcopy(prov)
+    cfg = out.get("config")
+    if isinstance(cfg, dict):
+        for key in EXECUTION_SETTINGS:
+            *parents, leaf = key.split(".")
+            node = cfg
+            for p in parents:
+                node = node.get(p) if isinstance(node, dict) else None
+            if isinstance(node, dict):
+                node.pop(leaf, None)
+        out["execution_settings"] = (f"left out of this log ({', '.join(EXECUTION_SETTINGS)}): they do not "
+                                     "change results; provenance.json beside the runs has them")
+    return out
+
+
 def log_loaded_modules(stage: str) -> None:
     """With INTERLLM_IMPORTS_LOG=<file>, append {"stage", "modules"}: the repository's source files
     this process has loaded (stage entry points and missions workers call it).

@@ -35,10 +35,11 @@ def run(cfg: DictConfig) -> dict:
     hc = HydraConfig.get()
     launcher = str(OmegaConf.select(hc, "launcher._target_", default="") or "")
     if "joblib" in launcher.lower():  # the launcher already runs jobs in parallel
-        import os
+        from interllm.experiment import usable_cores
 
         n_jobs = int(OmegaConf.select(hc, "launcher.n_jobs", default=1) or 1)
-        n_jobs = (os.cpu_count() or 1) if n_jobs < 0 else n_jobs
+        if n_jobs < 0:  # joblib's convention: -1 all cores, -2 all but one, ...
+            n_jobs = max(1, usable_cores() + 1 + n_jobs)
         if typed.jobs == 0:
             typed.jobs = 1  # no second layer of worker processes
         # and each job's model gets its share of the threads (llama.cpp's results do not depend on it)
