@@ -4,17 +4,26 @@
 VENV ?= .venv
 PYTHON ?= python3
 PY := $(VENV)/bin/python
+# The exact versions behind the committed results (resolved on Python 3.11). `CONSTRAINTS=`
+# installs from pyproject.toml's ranges instead (tests/test_reproduce.py then says what drifted).
+CONSTRAINTS ?= -c requirements.lock
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: install repro test lint bench params clean-cache
+.PHONY: install repro test lint bench params clean-cache lock
 
 install: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml requirements.lock
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet $(CONSTRAINTS) -e '.[dev]'
 	touch $@
+
+# Re-pin requirements.lock to what .venv holds now (after a deliberate upgrade; then make repro
+# and commit the new results with it).
+lock: install
+	{ sed -n '/^#/p' requirements.lock; $(PY) -m pip freeze --exclude-editable | grep -v '^-e'; } > requirements.lock.tmp
+	mv requirements.lock.tmp requirements.lock
 
 # Run the default experiment (the paper's protocol on the embedded model) with DVC.
 repro: install
