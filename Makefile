@@ -27,9 +27,12 @@ lock: install
 	  echo "make lock: pip freeze listed no mujoco pin; requirements.lock left unchanged" >&2; exit 1; }
 	mv requirements.lock.tmp requirements.lock
 
-# Run the default experiment (the paper's protocol on the embedded model) with DVC.
+# Run the default experiment (the paper's protocol on the embedded model) with DVC, then say
+# whether data/metrics/metrics.json reproduces the committed one (and if not: what moved, which
+# conclusions changed, and how this machine's environment differs from the one that made them).
 repro: install
 	dvc repro
+	$(PY) -m interllm.cli results diff
 
 # The test suite (what CI runs).
 test: install

@@ -11,6 +11,10 @@ and their ratio (goal: >= 3x overall).
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import collections
 import json
 import sys

@@ -10,6 +10,10 @@ against the backend's calls/s.
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import argparse
 import sys
 import tempfile

@@ -20,6 +20,10 @@ the file to a rerun .rrd (``interllm replay --save``; goal <= 5 s).
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import argparse
 import sys
 import tempfile

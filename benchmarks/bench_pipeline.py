@@ -16,6 +16,10 @@ byte-identical across the two runs (it must be).
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import sys
 import tempfile
 import time

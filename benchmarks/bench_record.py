@@ -12,6 +12,10 @@ Run: .venv/bin/python benchmarks/bench_record.py [--actions 25] [--samples 2000]
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import argparse
 import json
 import shutil

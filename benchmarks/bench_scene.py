@@ -9,6 +9,10 @@ Run: .venv/bin/python benchmarks/bench_scene.py [--repeats 3] [--sizes tiny pape
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import argparse
 import statistics
 import time

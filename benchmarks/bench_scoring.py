@@ -12,6 +12,10 @@ printed beside it. ``interllm.planning.proposals.SCORE_MODES`` records the chose
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import json
 import sys
 import tempfile

@@ -8,6 +8,10 @@ Run: .venv/bin/python benchmarks/bench_search.py [--rooms 49] [--nx-queries 4]
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import argparse
 import math
 import sys

@@ -13,6 +13,10 @@ Run: .venv/bin/python benchmarks/bench_sim.py [--scene-index 0]
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import argparse
 import sys
 import time

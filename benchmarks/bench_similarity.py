@@ -8,6 +8,10 @@ checks both give the same value.
 
 from __future__ import annotations
 
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
 import time
 
 import numpy as np

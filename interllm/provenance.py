@@ -1,4 +1,5 @@
-"""Provenance of a run: resolved config, git commit, package versions, model sha256, seed."""
+"""Provenance of a run: resolved config, git commit, package versions, model sha256, seed, and the
+numerical environment (BLAS kernel and threads, numpy SIMD targets, CPU; see interllm.numerics)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import platform
 import subprocess
 from importlib import metadata
 
+from interllm import numerics
 from interllm.config import ExperimentConfig
 
 PACKAGES = ("interllm", "numpy", "scipy", "networkx", "mujoco", "mink", "llama_cpp_python",
@@ -35,14 +37,25 @@ def package_versions() -> dict[str, str]:
 
 
 def model_sha256(cfg: ExperimentConfig) -> str:
-    """sha256 of the embedded GGUF (or the Ollama model name); never loads the model."""
+    """sha256 of the embedded GGUF (or the server's model name); never loads the model."""
     if cfg.llm.backend != "embedded":
-        return f"ollama:{cfg.llm.model}"
+        return f"{cfg.llm.backend}:{cfg.llm.model}"
     try:
-        from interllm.llm.embedded import model_digest
+        from interllm.llm.embedded import EmbeddedBackend
 
-        return model_digest(cfg.llm)
-    except Exception as e:  # provenance must never fail a run
+        return EmbeddedBackend(cfg.llm).model_id()
+    except Exception as e:  # noqa: BLE001 - provenance must never fail a run
+        return f"unavailable ({type(e).__name__}: {e})"
+
+
+def llama_cpp_system_info() -> str:
+    """The SIMD features llama.cpp was built with (it compiles for the installing machine's CPU,
+    so a cold-cache answer may differ between machines; cached answers do not)."""
+    try:
+        import llama_cpp
+
+        return llama_cpp.llama_print_system_info().decode("utf-8", "replace").strip()
+    except Exception as e:  # noqa: BLE001 - optional, diagnostics only
         return f"unavailable ({type(e).__name__}: {e})"
 
 
@@ -54,6 +67,8 @@ def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None) -> di
         "python": platform.python_version(),
         "model_sha256": model_sha256(cfg),
         "seed": cfg.seed,
+        "numerics": numerics.effective(),
+        "llama_cpp": llama_cpp_system_info() if cfg.llm.backend == "embedded" else "not used",
     }
 
 
@@ -63,11 +78,15 @@ EXECUTION_SETTINGS = ("jobs", "llm.n_threads")
 
 
 def for_run_log(prov: dict) -> dict:
-    """``prov`` without the execution settings in its config: a run log (MCAP) is then the same
-    bytes whatever worker count or thread share produced it. provenance.json keeps them."""
+    """``prov`` without the execution settings in its config and without the machine's CPU: a run
+    log (MCAP) is then the same bytes whatever worker count, thread share or (pinned) machine
+    produced it. provenance.json keeps them."""
     import copy
 
     out = copy.deepcopy(prov)
+    if isinstance(out.get("numerics"), dict):  # the machine-specific part (CPU) stays in provenance.json
+        out["numerics"] = numerics.for_results(out["numerics"])
+    out.pop("llama_cpp", None)
     cfg = out.get("config")
     if isinstance(cfg, dict):
         for key in EXECUTION_SETTINGS:
