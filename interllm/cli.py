@@ -8,6 +8,7 @@
     interllm scene import-procthor house.json --out my_scene/
     interllm report --sweeps multirun/                   # report + ablation tables of multiruns
     interllm cache stats [--dir data/llm_cache]
+    interllm results diff [--reference HEAD] [--check]   # metrics.json against the committed one
 """
 
 from __future__ import annotations
@@ -78,8 +79,21 @@ def _report(args) -> int:
 
     data = Path(args.data)
     params = Path(args.params)
-    cfg = from_dict(yaml.safe_load(params.read_text()) or {}) if params.is_file() else None
+    missing = [s for s in args.sweeps if not Path(s).is_dir()]
+    if missing:
+        print(f"interllm report: error: --sweeps folder(s) {missing} do not exist; run the multiruns first "
+              f"(README: Configuration and ablations) or pass the folders they wrote", file=sys.stderr)
+        return 2
+    if not (data / "metrics" / "metrics.json").is_file():
+        print(f"interllm report: error: {data / 'metrics' / 'metrics.json'} is missing; run `make repro` "
+              f"(or pass --data)", file=sys.stderr)
+        return 2
+    cfg = from_dict(yaml.safe_load(params.read_text()) or {}, source=str(params)) if params.is_file() else None
     temps, ms = find_sweep_results(*[Path(s) for s in args.sweeps])
+    if args.sweeps and not temps and not ms:
+        print(f"interllm report: error: no temperature_ablation or m_ablation job with data/metrics/metrics.json "
+              f"under {args.sweeps}", file=sys.stderr)
+        return 2
     run_report(cfg, data / "metrics", data / "scenes", data / "runs", Path(args.out),
                temperature_results=temps, m_results=ms)
     print(f"wrote {args.out}/report.html with {len(temps)} temperature and {len(ms)} M ablation results")
@@ -94,7 +108,51 @@ def _cache_stats(args) -> int:
     return 0
 
 
+def _results_diff(args) -> int:
+    """Compare metrics.json (and the environment it was made in) with a git revision's."""
+    from interllm.metrics.compare import committed_file, compare_metrics
+    from interllm.numerics import describe_environment_change
+
+    root = Path(args.repo).resolve()
+    rel = Path(args.file)
+    path = rel if rel.is_absolute() else root / rel
+    ref = committed_file(root, rel.as_posix(), args.reference)
+    if ref is None:
+        print(f"results diff: no {rel.as_posix()} at git revision {args.reference} in {root}; nothing to "
+              f"compare with", file=sys.stderr)
+        return 2
+    if not path.is_file():
+        print(f"results diff: {path} is missing: run `make repro` first", file=sys.stderr)
+        return 2
+    try:
+        cmp = compare_metrics(json.loads(ref), json.loads(path.read_text(encoding="utf-8")))
+    except ValueError as e:
+        print(f"results diff: {path} or its {args.reference} version is not valid JSON: {e}", file=sys.stderr)
+        return 2
+    if cmp.identical and ref == path.read_bytes():
+        print(f"{rel.as_posix()} reproduces the {args.reference} version byte for byte.")
+        return 0
+    print(f"{rel.as_posix()} differs from the {args.reference} version.\n{cmp.text()}")
+    env_rel = rel.with_name("environment.json").as_posix()
+    env_ref, env_now = committed_file(root, env_rel, args.reference), path.with_name("environment.json")
+    if env_ref is not None and env_now.is_file():
+        lines = describe_environment_change(json.loads(env_ref), json.loads(env_now.read_text(encoding="utf-8")))
+        print("Environment against the reference: " + ("; ".join(lines) if lines else "the same"))
+    return 1 if args.check else 0
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; a user-fixable error is one line on stderr and exit status 2."""
+    from interllm.errors import UserError
+
+    try:
+        return _main(argv)
+    except UserError as e:
+        print(f"interllm: error: {e}", file=sys.stderr)
+        return 2
+
+
+def _main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "replay":
         from interllm.record.replay import replay_main
@@ -123,7 +181,15 @@ def main(argv: list[str] | None = None) -> int:
     ca = sub.add_parser("cache", help="LLM response cache tools").add_subparsers(dest="ccmd", required=True)
     st = ca.add_parser("stats")
     st.add_argument("--dir", default="data/llm_cache")
+    rs = sub.add_parser("results", help="compare results").add_subparsers(dest="rcmd", required=True)
+    rd = rs.add_parser("diff", help="metrics.json against a git revision's: what moved, which conclusions changed")
+    rd.add_argument("--reference", default="HEAD", help="git revision (default HEAD)")
+    rd.add_argument("--file", default="data/metrics/metrics.json")
+    rd.add_argument("--repo", default=".", help="repository root (default: the current directory)")
+    rd.add_argument("--check", action="store_true", help="exit 1 when the results differ")
     args = ap.parse_args(argv)
+    if args.cmd == "results":
+        return _results_diff(args)
     if args.cmd == "scene":
         if args.scmd == "schema":
             from interllm.scene.schema import scene_json_schema

@@ -14,6 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
+from interllm.errors import UserError
+
 PLANNER_NAMES = ("inter_llm", "sayplan", "moma_llm")
 LLM_BACKENDS = ("embedded", "ollama")
 CACHE_MODES = ("readwrite", "replay", "off")
@@ -22,7 +24,7 @@ NAV_ESTIMATES = ("paper_sum", "weighted_mean")
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
 
 
-class ConfigError(ValueError):
+class ConfigError(UserError, ValueError):
     """A configuration value is invalid; the message names the key and the valid values."""
 
 
@@ -107,6 +109,7 @@ class LLMConfig:
     constrain_names: bool = True  # enumerate valid scene-graph names in schemas
     repair_retries: int = 2  # re-asks after malformed output
     calibrate: bool = True  # score calibration against a content-free prompt
+    max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail
 
     def validate(self) -> None:
         _choice(self.backend, "llm.backend", LLM_BACKENDS)
@@ -121,6 +124,8 @@ class LLMConfig:
         _choice(self.proposal_mode, "llm.proposal_mode", PROPOSAL_MODES)
         _choice(self.cost_inference_mode, "llm.cost_inference_mode", PROPOSAL_MODES)
         _check(0 <= self.repair_retries <= 10, "llm.repair_retries", "must be in [0, 10]")
+        _check(0.0 <= self.max_failure_share <= 1.0, "llm.max_failure_share",
+               f"must be in [0, 1] (share of failed or unparseable LLM calls), got {self.max_failure_share}")
 
 
 @dataclass
@@ -220,24 +225,71 @@ class ExperimentConfig:
             group.validate()
 
 
-def from_dict(d: dict) -> ExperimentConfig:
-    """Build and validate an ExperimentConfig from a plain nested dict (e.g. params.yaml)."""
+_GROUPS = {"scene": SceneConfig, "mission": MissionConfig, "llm": LLMConfig, "planner": PlannerConfig,
+           "sim": SimConfig, "metrics": MetricsConfig}
+
+
+def _type_name(tp: str) -> str:
+    return {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false",
+            "list[str]": "a list of strings"}.get(tp, tp)
+
+
+def _coerce(value, tp: str, key: str, source: str):
+    """``value`` checked against the field annotation ``tp`` (as written in the dataclass)."""
+    where = f" (in {source})" if source else ""
+    optional = tp.startswith("Optional[")
+    base = tp[len("Optional["):-1] if optional else tp
+    if value is None:
+        if optional:
+            return None
+        raise ConfigError(f"config key '{key}'{where} must be {_type_name(base)}, got null")
+    is_bool = isinstance(value, bool)
+    if base == "bool" and is_bool:
+        return value
+    if base == "int" and isinstance(value, int) and not is_bool:
+        return value
+    if base == "float" and isinstance(value, (int, float)) and not is_bool:
+        return float(value)
+    if base == "str" and isinstance(value, str):
+        return value
+    if base == "list[str]" and isinstance(value, list) and all(isinstance(x, str) for x in value):
+        return list(value)
+    hint = ""
+    if base == "list[str]" and isinstance(value, str):
+        hint = f"; write a list, e.g. -S '{key}=[{value}]'"
+    elif base == "int" and isinstance(value, float) and not is_bool:
+        hint = f"; {value} is not a whole number"
+    raise ConfigError(f"config key '{key}'{where} must be {_type_name(base)}"
+                      f"{' or null' if optional else ''}, got {value!r} ({type(value).__name__}){hint}")
+
+
+def from_dict(d: dict, source: str = "") -> ExperimentConfig:
+    """Build and validate an ExperimentConfig from a plain nested dict (e.g. params.yaml).
+
+    Checks every value's type against the dataclass annotations and rejects unknown keys (also
+    those added with Hydra's ``+key=value``), naming the key, ``source`` and the valid choices.
+    """
     import dataclasses
 
     def build(cls, data, prefix):
-        names = {f.name: f for f in dataclasses.fields(cls)}
-        unknown = set(data) - set(names)
+        if not isinstance(data, dict):
+            raise ConfigError(f"config key '{prefix[:-1]}'{f' (in {source})' if source else ''} must be a "
+                              f"mapping of keys, got {data!r}")
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - set(fields), key=str)
         if unknown:
-            raise ConfigError(f"config key '{prefix}{sorted(unknown)[0]}' is unknown; valid keys: "
-                              f"{sorted(names)}")
+            import difflib
+
+            close = difflib.get_close_matches(str(unknown[0]), list(fields), n=1)
+            raise ConfigError(f"config key '{prefix}{unknown[0]}'{f' (in {source})' if source else ''} is "
+                              f"unknown{f' (did you mean {prefix}{close[0]!s}?)' if close else ''}; valid "
+                              f"keys: {sorted(fields)}")
         kwargs = {}
         for k, v in data.items():
-            sub = {"scene": SceneConfig, "mission": MissionConfig, "llm": LLMConfig,
-                   "planner": PlannerConfig, "sim": SimConfig, "metrics": MetricsConfig}
-            if cls is ExperimentConfig and k in sub:
-                kwargs[k] = build(sub[k], v or {}, f"{k}.")
+            if cls is ExperimentConfig and k in _GROUPS:
+                kwargs[k] = build(_GROUPS[k], {} if v is None else v, f"{k}.")
             else:
-                kwargs[k] = v
+                kwargs[k] = _coerce(v, str(fields[k].type), f"{prefix}{k}", source)
         obj = cls(**kwargs)
         if cls is not ExperimentConfig:
             obj.validate()

@@ -8,6 +8,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from interllm.errors import UserError
+
 
 def _umask() -> int:
     """The process umask, read without changing it where the OS tells (Linux); elsewhere set and
@@ -61,12 +63,55 @@ def write_json(path: str | os.PathLike, obj: Any) -> None:
     atomic_write_text(path, dumps_json(obj))
 
 
-def read_json(path: str | os.PathLike) -> Any:
+class InputFileError(UserError, ValueError):
+    """A file the user gave cannot be read as what it should be; ``problem`` says why and where
+    (byte offset, line and column), ``path`` which file."""
+
+    def __init__(self, path: str | os.PathLike, problem: str) -> None:
+        super().__init__(f"{path}: {problem}")
+        self.path, self.problem = str(path), problem
+
+    def __reduce__(self):
+        return (type(self), (self.path, self.problem))
+
+
+def read_bytes(path: str | os.PathLike) -> bytes:
+    """The file's bytes, or :class:`InputFileError` (missing, a directory, unreadable)."""
     path = Path(path)
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise InputFileError(path, "file not found") from None
+    except IsADirectoryError:
+        raise InputFileError(path, "is a directory, not a file") from None
+    except PermissionError:
+        raise InputFileError(path, "cannot be read (permission denied)") from None
+    except OSError as e:
+        raise InputFileError(path, f"cannot be read ({e.strerror or e})") from None
+
+
+def decode_utf8(data: bytes, path: str | os.PathLike) -> str:
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise InputFileError(path, f"byte {e.start}: not UTF-8 text ({data[e.start:e.start + 4]!r}); save the "
+                                   f"file as UTF-8") from None
+
+
+def parse_json(text: str, path: str | os.PathLike) -> Any:
+    """``json.loads`` with every failure as an :class:`InputFileError` naming line and column."""
+    try:
+        return json.loads(text)
     except json.JSONDecodeError as e:
-        raise ValueError(f"{path}:{e.lineno}:{e.colno}: invalid JSON: {e.msg}") from None
+        raise InputFileError(path, f"line {e.lineno} column {e.colno}: invalid JSON: {e.msg}") from None
+    except RecursionError:
+        raise InputFileError(path, "invalid JSON: nested too deeply (thousands of [ or { without their "
+                                   "closing brackets?)") from None
+
+
+def read_json(path: str | os.PathLike) -> Any:
+    """Read a UTF-8 JSON file; any problem is an :class:`InputFileError` naming the file and where."""
+    return parse_json(decode_utf8(read_bytes(path), path), path)
 
 
 def write_jsonl(path: str | os.PathLike, rows: list[dict]) -> None:

@@ -1,17 +1,24 @@
 """Shared by the stage entry points: read params.yaml (written by DVC from conf/), validate it,
-set up logging. Errors name the config key and exit with status 2 instead of a traceback."""
+set up logging, run the stage body. A user-fixable error (interllm.errors.UserError: a bad config
+key, file, URL or model) is printed as one message without a traceback and exits with status 2;
+under DVC the message also says how to get back the outputs DVC removed before the stage ran."""
 
 from __future__ import annotations
 
 import argparse
 import logging
+import os
+import signal
 import sys
+import traceback
 from collections.abc import Callable
 from pathlib import Path
 
 import yaml
 
 from interllm.config import ConfigError, ExperimentConfig, from_dict
+from interllm.errors import UserError
+from interllm.lifetime import die_with_parent
 from interllm.provenance import log_loaded_modules
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -22,8 +29,14 @@ def load_params(path: Path | None = None) -> tuple[ExperimentConfig, dict]:
     if not path.is_file():
         raise ConfigError(f"{path} is missing: run `dvc exp run` or `python -m pipeline.params` to "
                           f"compose it from conf/")
-    raw = yaml.safe_load(path.read_text()) or {}
-    return from_dict(raw), raw
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    except (UnicodeDecodeError, yaml.YAMLError) as e:
+        raise ConfigError(f"{path} is not readable YAML ({e}); recompose it with `make params`") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path} must hold a mapping of config keys, got {type(raw).__name__}; "
+                          f"recompose it with `make params`")
+    return from_dict(raw, source=str(path)), raw
 
 
 def setup_logging(verbose: bool) -> None:
@@ -31,19 +44,35 @@ def setup_logging(verbose: bool) -> None:
                         format="%(levelname)s %(name)s: %(message)s")
 
 
+def _dvc_hint(name: str) -> str:
+    """Under DVC (which sets DVC_STAGE), how to restore what DVC deleted before the stage ran."""
+    stage = os.environ.get("DVC_STAGE")
+    if not stage:
+        return ""
+    return (f"\nnote: DVC removed the previous outputs of stage '{stage}' before running it; "
+            f"`dvc checkout {stage}` restores them from the DVC cache (dvc.lock still names them)")
+
+
 def stage_main(name: str, body: Callable[[ExperimentConfig, dict, Path], None]) -> None:
     ap = argparse.ArgumentParser(prog=f"python -m pipeline.{name}", description=f"DVC stage '{name}'")
     ap.add_argument("--params", type=Path, default=None, help="params file (default: params.yaml)")
     ap.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     args = ap.parse_args()
+    if os.environ.get("DVC_STAGE"):  # run by DVC: a killed `dvc repro` must not leave the stage running
+        die_with_parent(sig=signal.SIGTERM)
     try:
         cfg, raw = load_params(args.params)
-    except ConfigError as e:
-        print(f"error: {e}", file=sys.stderr)
+        setup_logging(args.verbose or cfg.verbose)
+        data = Path(cfg.data_dir)
+        if not data.is_absolute():
+            data = ROOT / data
+        body(cfg, raw, data)
+    except UserError as e:
+        print(f"error: stage '{name}': {e}{_dvc_hint(name)}", file=sys.stderr)
         sys.exit(2)
-    setup_logging(args.verbose or cfg.verbose)
-    data = Path(cfg.data_dir)
-    if not data.is_absolute():
-        data = ROOT / data
-    body(cfg, raw, data)
+    except Exception:
+        traceback.print_exc()
+        print(f"error: stage '{name}' failed on an unexpected error (the traceback above; please report "
+              f"it){_dvc_hint(name)}", file=sys.stderr)
+        sys.exit(1)
     log_loaded_modules(name)

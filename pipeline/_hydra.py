@@ -11,7 +11,7 @@ from pathlib import Path
 
 from hydra.core.config_store import ConfigStore
 
-from interllm.config import ExperimentConfig
+from interllm.config import ExperimentConfig, from_dict
 
 CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 
@@ -29,3 +29,12 @@ def compose(overrides: list[str] | None = None, typed: bool = True):
         register()
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         return _compose(config_name="config", overrides=list(overrides or []))
+
+
+def to_config(cfg) -> ExperimentConfig:
+    """The typed config of a composed DictConfig, validated like params.yaml on the DVC path:
+    types, ranges and unknown keys (Hydra lets ``+planner.MM=3`` add a key to the schema)."""
+    from omegaconf import OmegaConf
+
+    return from_dict(OmegaConf.to_container(cfg, resolve=True),
+                     source="the composed config (conf/ and the command-line overrides)")

@@ -17,20 +17,27 @@ from omegaconf import OmegaConf
 from interllm.config import ConfigError
 from interllm.io import atomic_write_text
 from pipeline._common import ROOT
-from pipeline._hydra import compose
+from pipeline._hydra import compose, to_config
 
 
 def compose_params(overrides: list[str]) -> str:
     """The params.yaml text: written exactly as DVC's compose_and_dump writes it."""
     cfg = compose(overrides, typed=True)
-    OmegaConf.to_object(cfg)  # validate types and ranges (raises ConfigError naming the key)
+    to_config(cfg)  # validate types, ranges and unknown keys (raises ConfigError naming the key)
     OmegaConf.resolve(cfg)
     return OmegaConf.to_yaml(cfg)
 
 
 def main(argv: list[str]) -> int:
+    from hydra.errors import HydraException
+    from omegaconf.errors import OmegaConfBaseException
+
     try:
         text = compose_params(argv)
+    except (HydraException, OmegaConfBaseException) as e:  # a bad override: Hydra's message names it
+        cause = f": {e.__cause__}" if e.__cause__ is not None else ""
+        print(f"error: {e}{cause}".replace("\n", " "), file=sys.stderr)
+        return 2
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -12,14 +12,16 @@ never asks the model the same question twice. For DVC-tracked runs use `dvc repr
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
+from interllm.errors import UserError
 from pipeline._common import ROOT, setup_logging
-from pipeline._hydra import CONF_DIR, register
+from pipeline._hydra import CONF_DIR, register, to_config
 
 register()
 
@@ -27,7 +29,7 @@ register()
 def run(cfg: DictConfig) -> dict:
     from interllm.experiment import run_all
 
-    typed = OmegaConf.to_object(cfg)  # validates (ConfigError names the key)
+    typed = to_config(cfg)  # validates types, ranges and unknown keys (ConfigError names the key)
     setup_logging(typed.verbose)
     cache = Path(typed.llm.cache_dir)
     if not cache.is_absolute():
@@ -52,7 +54,11 @@ def run(cfg: DictConfig) -> dict:
 
 @hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
 def main(cfg: DictConfig) -> None:
-    run(cfg)
+    try:
+        run(cfg)
+    except UserError as e:  # a fixable problem: its message, not a traceback
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
 
 
 if __name__ == "__main__":

@@ -114,7 +114,7 @@ def test_valid_file_loads_and_round_trips(tmp_path, base):
 def test_not_json_and_missing_file(tmp_path):
     f = tmp_path / "x.json"
     f.write_text("{not json")
-    with pytest.raises(SceneValidationError, match=r"x\.json: \$: invalid JSON at line 1"):
+    with pytest.raises(SceneValidationError, match=r"x\.json: \$: line 1 column \d+: invalid JSON"):
         load_scene_file(f)
     with pytest.raises(SceneValidationError, match="file not found"):
         load_scene_file(tmp_path / "nope.json")

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 from interllm.config import CACHE_MODES
+from interllm.errors import UserError
 from interllm.io import atomic_write_text
 
 log = logging.getLogger(__name__)
@@ -31,7 +32,7 @@ log = logging.getLogger(__name__)
 CACHE_FORMAT = 1  # bump when the entry layout or the key recipe changes
 
 
-class CacheMissError(RuntimeError):
+class CacheMissError(UserError, RuntimeError):
     """Replay mode found no entry for a request."""
 
 
@@ -66,6 +67,7 @@ class ResponseCache:
         self.hits = 0
         self.misses = 0
         self.corrupt = 0
+        self.writable = True  # False after a failed write: the run goes on without caching
 
     def path_for(self, key: str) -> Path:
         return self.dir / key[:2] / f"{key}.json"
@@ -73,18 +75,23 @@ class ResponseCache:
     def _read(self, key: str) -> Optional[dict]:
         path = self.path_for(key)
         try:
-            text = path.read_text(encoding="utf-8")
+            data = path.read_bytes()
         except FileNotFoundError:
             return None
+        except OSError as e:  # a directory where the entry should be, no permission, ...
+            self.corrupt += 1
+            log.warning("LLM cache entry %s cannot be read (%s); treating it as a miss", path,
+                        e.strerror or e)
+            return None
         try:
-            entry = json.loads(text)
+            entry = json.loads(data.decode("utf-8"))
             if not isinstance(entry, dict) or entry.get("key") != key:
                 raise CacheCorruptError("entry key does not match its file name")
             resp = entry["response"]
             if response_checksum(resp) != entry["checksum"]:
                 raise CacheCorruptError("response checksum mismatch")
             return resp
-        except (ValueError, KeyError, TypeError) as e:
+        except (ValueError, KeyError, TypeError, RecursionError) as e:  # UnicodeDecodeError is a ValueError
             self.corrupt += 1
             log.warning("LLM cache entry %s is corrupt (%s); treating it as a miss and "
                         "overwriting it", path, e)
@@ -111,12 +118,20 @@ class ResponseCache:
         return None
 
     def put(self, key: str, request_summary: dict, response: dict) -> Optional[Path]:
-        """Store an entry atomically (no-op unless mode is ``readwrite``)."""
-        if self.mode != "readwrite":
+        """Store an entry atomically (no-op unless mode is ``readwrite``). A cache folder that cannot
+        be written (read-only, full, an entry path taken by a folder) costs the caching, never the
+        answer: one warning, and this cache stops writing for the rest of the run."""
+        if self.mode != "readwrite" or not self.writable:
             return None
         entry = {"cache_format": CACHE_FORMAT, "key": key, "request": request_summary,
                  "response": response, "checksum": response_checksum(response)}
         text = json.dumps(entry, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n"
         path = self.path_for(key)
-        atomic_write_text(path, text)
+        try:
+            atomic_write_text(path, text)
+        except OSError as e:
+            self.writable = False
+            log.warning("LLM cache %s cannot be written (%s: %s); answers of this run are not cached. Make "
+                        "the folder writable or point llm.cache_dir elsewhere", self.dir, path, e.strerror or e)
+            return None
         return path

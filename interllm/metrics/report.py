@@ -19,6 +19,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Optional
 
+from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, read_json
 from interllm.metrics import plots
 from interllm.metrics.compute import read_csv
@@ -254,7 +255,7 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     metrics_dir, out_dir = Path(metrics_dir), Path(out_dir)
     mpath = metrics_dir / "metrics.json"
     if not mpath.is_file():
-        raise FileNotFoundError(f"{mpath} is missing; run the 'aggregate' stage (interllm.metrics.aggregate) "
+        raise MissingInputError(f"{mpath} is missing; run the 'aggregate' stage (interllm.metrics.aggregate) "
                                 f"first or pass the folder holding metrics.json")
     metrics = read_json(mpath)
     per_object = read_csv(metrics_dir / "per_object.csv")
@@ -286,6 +287,13 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     doc.table(["planner", "missions", "m_overall / mission [CI]", "m_overall / object", "fulfilled", "sr_obj",
                "cc / mission", "d [m] / mission", "t_exe [s] / mission", "sr_man", "LLM calls / mission",
                "tokens in / mission", "tokens out / mission"], rows)
+    calls = metrics.get("llm_calls", {})
+    if calls:
+        doc.p("LLM calls that failed (an answer still unparseable after the repair retries, or a backend "
+              "error; a stage stops above llm.max_failure_share): " + "; ".join(
+                  f"{stage} stage {c.get('failed', 0)} of {c.get('calls', 0)}" for stage, c in sorted(calls.items()))
+              + "; per planner in the missions stage: " + ", ".join(
+                  f"{plots.label(p)} {pl[p].get('llm_failed_calls', 0)}" for p in _ordered(pl)) + ".")
     imp = metrics.get("improvement", {})
     if imp:
         doc.table(["comparison", "pairs", "improvement % of baseline m_overall [CI]"],

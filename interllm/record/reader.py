@@ -34,6 +34,7 @@ from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
+from interllm.errors import MissingInputError, UserError
 from interllm.record.mcap_writer import (
     ACTIONS_TOPIC,
     DRIVEN_TOPIC,
@@ -53,7 +54,7 @@ from interllm.scene.grid import OccupancyGrid
 from interllm.sim.results import ActionResult, Trajectory
 
 
-class RunLogFormatError(ValueError):
+class RunLogFormatError(UserError, ValueError):
     """A readable run log whose content this version cannot interpret (not a truncation)."""
 
 
@@ -347,7 +348,7 @@ def read_run(path: str | os.PathLike) -> RunLog:
     if not path.exists():
         partial = path.with_name(path.name + ".partial")
         hint = f"; a killed run left {partial}" if partial.exists() else ""
-        raise FileNotFoundError(f"no MCAP run log at {path}{hint}")
+        raise MissingInputError(f"no MCAP run log at {path}{hint}")
     with open(path, "rb") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise ValueError(f"{path} is not an MCAP file (bad magic); pass a .mcap written by McapRecorder")

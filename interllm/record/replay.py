@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from interllm.errors import MissingInputError, UserError
 from interllm.record.mcap_writer import scene_boxes
 from interllm.record.reader import RunLog, read_run
 from interllm.sim.results import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
@@ -58,10 +59,10 @@ def find_runs(path_or_dir: str | os.PathLike) -> list[Path]:
         runs = sorted(q for q in p.rglob("*") if q.is_file() and
                       (q.name.endswith(".mcap") or q.name.endswith(".mcap.partial")))
         if not runs:
-            raise FileNotFoundError(f"no .mcap files under {p}; pass a run .mcap or a folder of runs")
+            raise MissingInputError(f"no .mcap files under {p}; pass a run .mcap or a folder of runs")
         return runs
     if not p.exists():
-        raise FileNotFoundError(f"{p} does not exist; pass a run .mcap or a folder of runs")
+        raise MissingInputError(f"{p} does not exist; pass a run .mcap or a folder of runs")
     return [p]
 
 
@@ -310,8 +311,14 @@ def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool 
     to_file = save is not None or not (spawn or serve)
     bp = blueprint()
     written: list[Path] = []
+    failed: list[tuple[Path, str]] = []
     for i, mcap_path in enumerate(runs):
-        run = read_run(mcap_path)
+        try:
+            run = read_run(mcap_path)
+        except Exception as e:  # noqa: BLE001 - one bad file must not stop the others
+            failed.append((mcap_path, f"{type(e).__name__}: {e}"))
+            print(f"replay: {mcap_path}: cannot be read ({type(e).__name__}: {e}); skipped", file=sys.stderr)
+            continue
         stem = mcap_path.name.removesuffix(".partial").removesuffix(".mcap")
         rec = rr.RecordingStream("interllm", recording_id=_recording_id(mcap_path), send_properties=False)
         rec.set_log_time_enabled(False)
@@ -343,7 +350,19 @@ def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool 
             print(f"replay: {mcap_path} is truncated: {run.stopped_at}")
         if serve:
             _SERVED.append(rec)  # keep the server alive until the process ends
+    if failed:
+        raise ReplayIncomplete(written, failed)
     return written
+
+
+class ReplayIncomplete(UserError):
+    """Some run logs could not be read; the others were converted (``written``)."""
+
+    def __init__(self, written: list[Path], failed: list[tuple[Path, str]]) -> None:
+        lines = "\n".join(f"  {p}: {why}" for p, why in failed)
+        super().__init__(f"{len(failed)} of {len(failed) + len(written)} run logs could not be replayed "
+                         f"(the other {len(written)} were converted):\n{lines}")
+        self.written, self.failed = written, failed
 
 
 _SERVED: list = []
@@ -361,7 +380,10 @@ def replay_main(argv: Sequence[str] | None = None) -> int:
     args = ap.parse_args(list(argv) if argv is not None else None)
     try:
         replay(args.path, save=args.save, spawn=args.spawn, serve=args.serve)
-    except (FileNotFoundError, ValueError) as e:
+    except ReplayIncomplete as e:
+        print(f"interllm replay: error: {e}", file=sys.stderr)
+        return 1
+    except (UserError, FileNotFoundError, ValueError) as e:
         print(f"interllm replay: error: {e}", file=sys.stderr)
         return 2
     if args.serve:

@@ -17,12 +17,13 @@ from pathlib import Path
 from typing import Any, Optional
 
 from interllm.config import SceneConfig
+from interllm.errors import UserError
 from interllm.scene.graph import SceneGraph
 
 CATALOG_DIR = Path(__file__).with_name("catalog")
 
 
-class CatalogError(ValueError):
+class CatalogError(UserError, ValueError):
     """The catalog data is inconsistent, or a name is not in it (the message lists valid names)."""
 
 

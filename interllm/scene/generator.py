@@ -29,11 +29,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from interllm.config import SceneConfig
+from interllm.errors import UserError
 from interllm.scene.catalog import Catalog, CommandSpec, load_catalog
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.grid import approach_cells, free_components, largest_component, rasterize
 
 MAX_ATTEMPTS = 25
+MAX_FAILS_IN_A_ROW = 250  # object placements failing in a row before the surfaces count as full
 FULL_SUPPORT_ATTEMPTS = 8  # attempts spent looking for a scene supporting every command
 EXTRA_DOOR_FRACTION = 0.5  # share of the non-tree adjacencies that get a door (loops)
 DOOR_END_MARGIN = 0.3  # [m] door opening keeps this far from the wall ends
@@ -42,12 +44,16 @@ WALL_GAP = 0.01  # [m] between a wall's inner face and furniture backs
 REACH_MARGIN = 0.35  # [m] beyond the robot radius: how far the arm reaches over an edge
 
 
-class SceneGenerationError(RuntimeError):
+class SceneGenerationError(UserError, RuntimeError):
     """No valid scene after MAX_ATTEMPTS attempts; the message says which requirement failed."""
 
 
 class _Retry(Exception):
-    pass
+    """This attempt failed; another seed attempt may succeed."""
+
+
+class _TooFull(SceneGenerationError):
+    """Not even half the objects fit: no other attempt will place them all; stop at once."""
 
 
 def r4(v: float) -> float:
@@ -495,15 +501,25 @@ def _place_all_objects(b: _Build) -> dict[str, bool]:
         supported[cmd.id] = len(valid(cmd)) >= K
         if cmd.paper and not supported[cmd.id]:
             raise _Retry(f"paper command {cmd.id!r} has fewer than {K} valid objects")
-    fails = 0
+    fails = in_a_row = 0
     while len(b.objects) < budget:
         fid = fids[int(b.rng.integers(len(fids)))]
         holds = cat.furniture[b.furniture[fid].category].holds
         if _add_object(b, holds[int(b.rng.integers(len(holds)))], [fid]) is None:
             fails += 1
-            if fails > 50 + 5 * budget:
+            in_a_row += 1
+            # surfaces are full: too many failures in all, or in a row (bounds the work for big budgets)
+            if fails > 50 + 5 * budget or in_a_row > MAX_FAILS_IN_A_ROW:
+                if 2 * len(b.objects) < budget:
+                    raise _TooFull(
+                        f"scene.n_objects={budget} does not fit: the surfaces of the {len(fids)} furniture "
+                        f"(scene.n_furniture) were full after {len(b.objects)} objects; lower scene.n_objects "
+                        f"to about {len(b.objects)}, or raise scene.n_furniture to about "
+                        f"{-(-budget * len(fids) // max(1, len(b.objects)))}")
                 raise _Retry(f"could place only {len(b.objects)} of {budget} objects; surfaces are full "
                              "(raise scene.n_furniture or lower scene.n_objects)")
+        else:
+            in_a_row = 0
     return {c.id: supported[c.id] for c in cat.commands}
 
 
@@ -531,6 +547,43 @@ def unreachable(scene: SceneGraph, grid, robot_radius: float) -> list[str]:
     return bad
 
 
+def capacity(cfg: SceneConfig, cat: Catalog) -> tuple[int, int]:
+    """Upper bounds (furniture, objects) a house of ``cfg`` can hold, from the catalog's sizes:
+    every room at ``scene.room_size_max``, furniture packed at its smallest footprint plus the free
+    ring, objects packed on the largest surface at their smallest side plus the object gap. Sizes
+    above these can never be generated; sizes below may still fail (rooms are smaller in fact)."""
+    pl = cat.placement
+    floor_area = cfg.n_rooms * cfg.room_size_max ** 2
+    smallest = min((f.size[0] + pl.free_ring) * (f.size[1] + pl.free_ring) for f in cat.furniture.values())
+    max_furniture = int(floor_area // smallest)
+    per_piece = 0
+    for f in cat.furniture.values():
+        if not f.holds:
+            continue
+        area = max(0.0, f.size[0] - 2 * pl.surface_margin + pl.object_gap) * \
+            max(0.0, f.size[1] - 2 * pl.surface_margin + pl.object_gap)
+        need = min((cat.objects[c].size[0] + pl.object_gap) * (cat.objects[c].size[1] + pl.object_gap)
+                   for c in f.holds)
+        per_piece = max(per_piece, int(area // need))
+    return max_furniture, per_piece * min(cfg.n_furniture, max_furniture)
+
+
+def check_capacity(cfg: SceneConfig, cat: Catalog) -> None:
+    """Refuse sizes that cannot fit, up front, naming the numbers that would."""
+    max_f, max_o = capacity(cfg, cat)
+    if cfg.n_furniture > max_f:
+        raise SceneGenerationError(
+            f"scene.n_furniture={cfg.n_furniture} cannot fit in {cfg.n_rooms} rooms of at most "
+            f"{cfg.room_size_max:g} m (scene.room_size_max): at most {max_f} pieces would; lower "
+            f"scene.n_furniture to <= {max_f}, or raise scene.n_rooms or scene.room_size_max")
+    if cfg.n_objects > max_o:
+        per = max(1, max_o // max(1, cfg.n_furniture))
+        raise SceneGenerationError(
+            f"scene.n_objects={cfg.n_objects} cannot fit on scene.n_furniture={cfg.n_furniture} pieces: at "
+            f"most {max_o} objects would (about {per} per piece at best); lower scene.n_objects to "
+            f"<= {max_o}, or raise scene.n_furniture to >= {-(-cfg.n_objects // per)}")
+
+
 def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
                    catalog: Catalog | None = None) -> SceneGraph:
     """Generate scene ``index`` of an experiment, deterministic in (cfg, index).
@@ -541,6 +594,7 @@ def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
     """
     cfg.validate()
     cat = catalog or load_catalog()
+    check_capacity(cfg, cat)
     seed = int(cfg.seed) + int(index)
     if seed < 0:
         raise ValueError(f"scene.seed + index must be >= 0, got {seed}; use a non-negative scene.seed")

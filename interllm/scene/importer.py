@@ -17,12 +17,12 @@ defaults and a ``warnings.warn``; missing required fields or contradictions rais
 
 from __future__ import annotations
 
-import json
 import re
 import warnings
 from pathlib import Path
 from typing import Any
 
+from interllm.io import InputFileError, read_json
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.generator import r4
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
@@ -86,11 +86,24 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
     else:
         source = str(house)
         try:
-            d = json.loads(Path(house).read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise SceneValidationError(source, "$", "file not found") from None
-        except json.JSONDecodeError as e:
-            raise SceneValidationError(source, "$", f"invalid JSON at line {e.lineno}: {e.msg}") from None
+            d = read_json(house)
+        except InputFileError as e:
+            raise SceneValidationError(source, "$", e.problem) from None
+    if not isinstance(d, dict):
+        raise SceneValidationError(source, "$", f"a ProcTHOR house is a JSON object, got {type(d).__name__}")
+    at = ["$"]  # the JSON path being converted, for the message when a field has the wrong type
+    try:
+        return _convert(d, cat, source, scene_id, wall_thickness, at)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
+        if isinstance(e, SceneValidationError):
+            raise
+        detail = f"missing field {e}" if isinstance(e, KeyError) else f"{type(e).__name__}: {e}"
+        raise SceneValidationError(source, at[0], f"a field has the wrong type or is missing ({detail}); "
+                                   f"see ProcTHOR's house format") from None
+
+
+def _convert(d: dict, cat: Catalog, source: str, scene_id: str | None, wall_thickness: float,
+             at: list[str]) -> SceneGraph:
     counters: dict[str, int] = {}
 
     def new_id(kind: str) -> str:
@@ -101,6 +114,7 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
     room_map: dict[str, str] = {}
     for i, r in enumerate(_req(d, "rooms", source, "$")):
         p = f"$.rooms[{i}]"
+        at[0] = p
         rid_raw = str(_req(r, "id", source, p))
         poly = _req(r, "floorPolygon", source, p)
         if not isinstance(poly, list) or len(poly) < 3:
@@ -121,6 +135,7 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
     wall_geo: dict[str, tuple[tuple[float, float], tuple[float, float], float]] = {}
     for i, w in enumerate(d.get("walls", [])):
         p = f"$.walls[{i}]"
+        at[0] = p
         wid = str(_req(w, "id", source, p))
         height = 2.5
         if "polygon" in w and isinstance(w["polygon"], list) and len(w["polygon"]) >= 2:
@@ -141,6 +156,7 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
     holes: dict[tuple, list[tuple[float, float]]] = {}
     for i, dr in enumerate(d.get("doors", [])):
         p = f"$.doors[{i}]"
+        at[0] = p
         r0, r1 = str(_req(dr, "room0", source, p)), str(_req(dr, "room1", source, p))
         for key, r in (("room0", r0), ("room1", r1)):
             if r not in room_map:
@@ -214,6 +230,7 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
     raw_ids: dict[str, str] = {}
     for i, o in enumerate(d.get("objects", [])):
         p = f"$.objects[{i}]"
+        at[0] = p
         raw = str(_req(o, "id", source, p))
         fx, fy = _xz(_req(o, "position", source, p), source, f"{p}.position")
         fcat = _category(raw, cat.furniture, "furniture", p)
@@ -230,6 +247,7 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
         furniture[fid] = Furniture(fid, fcat, room, (r4(fx), r4(fy)), tuple(r4(v) for v in size), desc)
         for j, c in enumerate(o.get("children", []) or []):
             cp = f"{p}.children[{j}]"
+            at[0] = cp
             craw = str(_req(c, "id", source, cp))
             ocat = _category(craw, cat.objects, "object", cp)
             oc = cat.objects.get(ocat)

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from interllm.config import MissionConfig
+from interllm.errors import UserError
 from interllm.io import read_json, write_json
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.generator import REACH_MARGIN, r4
@@ -26,7 +27,7 @@ from interllm.scene.grid import approach_cells, free_components, largest_compone
 MISSIONS_SCHEMA_VERSION = 1
 
 
-class MissionError(ValueError):
+class MissionError(UserError, ValueError):
     """Missions cannot be built for this scene, or a missions file is invalid."""
 
 

@@ -12,13 +12,16 @@ from typing import Any
 
 import jsonschema
 import networkx as nx
+import numpy as np
 
+from interllm.errors import UserError
+from interllm.io import InputFileError, read_json
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import rasterize
 from interllm.scene.schema import scene_json_schema
 
 
-class SceneValidationError(ValueError):
+class SceneValidationError(UserError, ValueError):
     """A scene is invalid. Attributes: source (file), path (JSON path), problem (what is wrong)."""
 
     def __init__(self, source: str, path: str, problem: str):
@@ -46,13 +49,48 @@ def _index(d: dict, key: str) -> dict[str, int]:
     return {rec["id"]: i for i, rec in enumerate(d.get(key, []))}
 
 
+def _inside(poly: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Even-odd rule: which of ``pts`` (N x 2) lie inside polygon ``poly`` (K x 2)."""
+    x, y = pts[:, 0:1], pts[:, 1:2]
+    x0, y0 = poly[:, 0], poly[:, 1]
+    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+    crosses = (y0 > y) != (y1 > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xc = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
+    return ((crosses & (x < xc)).sum(axis=1) % 2) == 1
+
+
+def room_overlaps(d: dict, step: float = 0.05, min_area: float = 0.01) -> list[tuple[int, int, float, tuple]]:
+    """Pairs of rooms whose floor polygons share more than ``min_area`` [m²] (sampled on a
+    ``step`` [m] lattice of cell centres, so rooms that only share an edge do not count):
+    (index a, index b, shared area [m²], a point in the shared part)."""
+    polys = [np.asarray(r["polygon"], dtype=float) for r in d.get("rooms", [])]
+    boxes = [(p[:, 0].min(), p[:, 1].min(), p[:, 0].max(), p[:, 1].max()) for p in polys]
+    out = []
+    for a in range(len(polys)):
+        for b in range(a + 1, len(polys)):
+            x0, y0 = max(boxes[a][0], boxes[b][0]), max(boxes[a][1], boxes[b][1])
+            x1, y1 = min(boxes[a][2], boxes[b][2]), min(boxes[a][3], boxes[b][3])
+            if x1 - x0 <= step or y1 - y0 <= step:
+                continue
+            xs = np.arange(x0 + step / 2, x1, step)
+            ys = np.arange(y0 + step / 2, y1, step)
+            pts = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+            both = _inside(polys[a], pts) & _inside(polys[b], pts)
+            area = float(both.sum()) * step * step
+            if area > min_area:
+                px, py = pts[np.argmax(both)]
+                out.append((a, b, area, (round(float(px), 2), round(float(py), 2))))
+    return out
+
+
 def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radius: float = 0.25,
                    resolution: float = 0.05, check_reachability: bool = True) -> SceneGraph:
     """Validate a scene (object or dict); return it as a SceneGraph.
 
     Checks: JSON Schema; ids unique across rooms/furniture/objects/doors/walls; references
     (furniture.room, objects.furniture, doors.rooms) exist; objects lie over their furniture; rooms
-    connected by doors; every room and furniture reachable on the presumed grid (robot_radius [m],
+    do not overlap; rooms connected by doors; every room and furniture reachable on the presumed grid (robot_radius [m],
     resolution [m/cell]) from the largest free region, which must touch every room.
     """
     d = json.loads(scene.to_json()) if isinstance(scene, SceneGraph) else scene
@@ -89,6 +127,12 @@ def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radi
                                            f"unknown room {r!r}; valid rooms: {sorted(rooms)}")
         if dr["rooms"][0] == dr["rooms"][1]:
             raise SceneValidationError(source, f"$.doors[{i}].rooms", "a door must join two different rooms")
+    for a, b, area, at in room_overlaps(d):
+        ra, rb = d["rooms"][a]["id"], d["rooms"][b]["id"]
+        raise SceneValidationError(source, f"$.rooms[{b}].polygon",
+                                   f"room {rb!r} overlaps room {ra!r} ($.rooms[{a}]) by about {area:.2f} m² "
+                                   f"(for example at {at}); rooms must have disjoint floor polygons (they may "
+                                   f"share walls)")
     sg = SceneGraph.from_dict(d)
     g = sg.room_graph()
     if len(sg.rooms) > 1 and not nx.is_connected(g):
@@ -116,10 +160,20 @@ def load_scene_file(path: str | Path, robot_radius: float = 0.25, resolution: fl
     """Read and validate a scene JSON file (our format; see ``importer`` for ProcTHOR houses)."""
     path = Path(path)
     try:
-        d = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SceneValidationError(str(path), "$", "file not found") from None
-    except json.JSONDecodeError as e:
-        raise SceneValidationError(str(path), "$", f"invalid JSON at line {e.lineno} column {e.colno}: {e.msg}") \
-            from None
+        d = read_json(path)
+    except InputFileError as e:
+        raise SceneValidationError(str(path), "$", e.problem) from None
+    if looks_like_procthor(d):
+        raise SceneValidationError(str(path), "$", f"this is a ProcTHOR house, not a scene in our format: convert it "
+                                                   f"with `interllm scene import-procthor {path} --out my_scene/`, "
+                                                   f"then use scene.import_path=my_scene/scene.json")
     return validate_scene(d, str(path), robot_radius, resolution, check_reachability)
+
+
+def looks_like_procthor(d: Any) -> bool:
+    """ProcTHOR's house JSON: rooms with ``floorPolygon`` or objects with ``assetId``."""
+    if not isinstance(d, dict):
+        return False
+    rooms, objs = d.get("rooms"), d.get("objects")
+    return (isinstance(rooms, list) and any(isinstance(r, dict) and "floorPolygon" in r for r in rooms)) or \
+        (isinstance(objs, list) and any(isinstance(o, dict) and "assetId" in o for o in objs))
