@@ -20,6 +20,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from interllm.config import ExperimentConfig
+from interllm.errors import MissingInputError, StageError, UserError
 from interllm.io import atomic_write_bytes, atomic_write_text, read_json, write_json
 from interllm.progress import progress
 from interllm.provenance import for_run_log, provenance
@@ -30,7 +31,7 @@ log = logging.getLogger(__name__)
 def scene_ids(scenes_dir: Path) -> list[str]:
     ids = sorted(p.name for p in Path(scenes_dir).iterdir() if (p / "scene.json").is_file())
     if not ids:
-        raise FileNotFoundError(f"no scenes in {scenes_dir}: run the 'scenes' stage first "
+        raise MissingInputError(f"no scenes in {scenes_dir}: run the 'scenes' stage first "
                                 f"(dvc repro scenes)")
     return ids
 
@@ -91,11 +92,14 @@ def _client(cfg: ExperimentConfig, call_log: Path | None, stage: str):
 # --------------------------------------------------------------------------------------------
 def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> None:
     """The M initial plan candidates of every command, shared by every planner."""
+    from interllm.llm.client import check_failure_share
     from interllm.planners.candidates import generate_initial_candidates
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    client = _client(cfg, out_dir / "llm_calls.jsonl", "candidates")
+    call_log = out_dir / "llm_calls.jsonl"
+    call_log.unlink(missing_ok=True)  # what an earlier (killed) run left here
+    client = _client(cfg, call_log, "candidates")
     try:
         jobs = [(sid, m) for sid in scene_ids(scenes_dir)
                 for m in _load_scene_and_missions(scenes_dir, sid, cfg)[1]]
@@ -105,6 +109,7 @@ def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> No
             c = client.with_context(scene=sid, mission=mission.id)
             by_scene.setdefault(sid, {})[mission.id] = generate_initial_candidates(
                 scenes[sid], mission, c, cfg)
+        check_failure_share(call_log, cfg.llm, "candidates stage")  # before any candidates are written
         for sid, cands in by_scene.items():
             write_json(out_dir / f"{sid}.json", cands)
     finally:
@@ -173,6 +178,8 @@ def _run_in_worker(job: tuple[str, str, str]) -> None:
     assert _WORKER is not None, "_init_worker did not run in this process"
     try:
         _WORKER.run(*job)
+    except UserError as e:  # a fixable problem: its message is enough (and pickles)
+        raise StageError(_failed(job, e, _WORKER.out_dir)) from None
     except Exception as e:
         raise RuntimeError(_failed(job, e, _WORKER.out_dir) + "\n" + traceback.format_exc()) from None
     log_loaded_modules("missions")
@@ -206,6 +213,9 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     import concurrent.futures as cf
     import dataclasses
     import multiprocessing
+    import os
+
+    from interllm.llm.client import check_failure_share
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -224,10 +234,13 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
             for job in progress(jobs, "missions", total=len(jobs)):
                 try:
                     worker.run(*job)
+                except UserError as e:
+                    raise StageError(_failed(job, e, out_dir)) from e
                 except Exception as e:
                     raise RuntimeError(_failed(job, e, out_dir)) from e
         finally:
             worker.client.close()
+        check_failure_share(call_log, cfg.llm, "missions stage")
         return
     # each worker's model gets its share of the LLM threads (llama.cpp's results do not depend on
     # the thread count; oversubscribed threads only spin)
@@ -237,7 +250,7 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     for part in parts:
         ids.put(part)
     with cf.ProcessPoolExecutor(n_workers, mp_context=ctx, initializer=_init_worker_part,
-                                initargs=(ids, wcfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
+                                initargs=(os.getpid(), ids, wcfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
         futures = {pool.submit(_run_in_worker, job): job for job in jobs}
         try:
             for fut in progress(cf.as_completed(futures), f"missions ({n_workers} workers)", total=len(jobs)):
@@ -253,6 +266,7 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
             raise
         finally:
             _merge_call_logs(parts, call_log, jobs)  # also after a failure: the calls made so far
+    check_failure_share(call_log, cfg.llm, "missions stage")
 
 
 def usable_cores() -> int:
@@ -271,16 +285,32 @@ def _failed(job: tuple[str, str, str], e: BaseException, out_dir: Path) -> str:
             f"{type(e).__name__}: {e} (its run log, if any: {log} or {log}.partial)")
 
 
-def _init_worker_part(ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:
-    """Worker initializer: take a call-log file of its own, then set up the worker state."""
-    _init_worker(cfg, scenes_dir, candidates_dir, out_dir, prov, ids.get())
+def _init_worker_part(parent: int, ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:
+    """Worker initializer: die with the parent (a killed stage leaves no worker behind), take a
+    call-log file of its own, then set up the worker state."""
+    from interllm.lifetime import die_with_parent
+
+    die_with_parent(parent)
+    _init_worker(cfg, scenes_dir, candidates_dir, out_dir, prov, ids.get(timeout=60))
 
 
 # --------------------------------------------------------------------------------------------
-def run_aggregate(cfg: ExperimentConfig, runs_dir: Path, scenes_dir: Path, out_dir: Path) -> dict:
+def run_aggregate(cfg: ExperimentConfig, runs_dir: Path, scenes_dir: Path, out_dir: Path,
+                  candidates_dir: Path | None = None) -> dict:
+    """metrics.json and the tidy tables; environment.json records the numerical environment, CPU
+    and packages the runs were made with (from runs/provenance.json), so that a reproduction on
+    another machine can say what differs (tests/test_reproduce.py, ``interllm results diff``)."""
     from interllm.metrics import aggregate
+    from interllm.numerics import environment_record
 
-    return aggregate(Path(runs_dir), Path(scenes_dir), cfg, out_dir=Path(out_dir))
+    logs = {"missions": Path(runs_dir) / "llm_calls.jsonl"}
+    if candidates_dir is not None:
+        logs["candidates"] = Path(candidates_dir) / "llm_calls.jsonl"
+    metrics = aggregate(Path(runs_dir), Path(scenes_dir), cfg, out_dir=Path(out_dir), call_logs=logs)
+    prov_path = Path(runs_dir) / "provenance.json"
+    prov = read_json(prov_path) if prov_path.is_file() else {}
+    write_json(Path(out_dir) / "environment.json", environment_record(prov))
+    return metrics
 
 
 def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_dir: Path,
@@ -295,11 +325,15 @@ def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_
 
 def run_all(cfg: ExperimentConfig, data_dir: Path, resolved_config: dict | None = None) -> dict:
     """All five stages in order into ``data_dir`` (Hydra runs and multiruns)."""
+    from interllm.llm.client import preflight
+
+    preflight(cfg.llm)  # a server that is down stops the run before any stage writes
     data_dir = Path(data_dir)
     run_scenes(cfg, data_dir / "scenes")
     run_candidates(cfg, data_dir / "scenes", data_dir / "candidates")
     run_missions(cfg, data_dir / "scenes", data_dir / "candidates", data_dir / "runs", resolved_config)
-    metrics = run_aggregate(cfg, data_dir / "runs", data_dir / "scenes", data_dir / "metrics")
+    metrics = run_aggregate(cfg, data_dir / "runs", data_dir / "scenes", data_dir / "metrics",
+                            data_dir / "candidates")
     run_report(cfg, data_dir / "metrics", data_dir / "scenes", data_dir / "runs", data_dir / "report")
     return metrics
 

@@ -5,6 +5,11 @@ Speaks ``GET /api/version``, ``GET /api/tags``, ``POST /api/show`` and ``POST /a
 (``answer_backend``), otherwise deterministic schema-valid JSON drawn from the request's
 ``format`` schema with a seed from ``options.seed`` and the messages. Every request body is kept
 in ``requests`` for assertions. No wall clock enters a response (created_at is fixed).
+
+``fault`` makes /api/chat misbehave the way broken servers do: ``"garbage"`` answers every chat
+with the content ``I think {banana``; ``"invalid_json"`` sends a body that is not JSON;
+``"http_500"`` an internal server error; ``"trickle"`` sends the headers, then one byte every
+0.2 s (for at most ``trickle_s`` seconds), so no single read times out.
 """
 
 from __future__ import annotations
@@ -26,9 +31,13 @@ class FakeOllama:
     """Context manager: ``with FakeOllama(models=("tiny:latest",)) as srv: srv.host``."""
 
     def __init__(self, models: tuple[str, ...] = ("fixture-model:latest",),
-                 answer_backend: Optional[Any] = None) -> None:
+                 answer_backend: Optional[Any] = None, fault: Optional[str] = None,
+                 trickle_s: float = 20.0) -> None:
+        assert fault in (None, "garbage", "invalid_json", "http_500", "trickle"), fault
         self.models = {m: hashlib.sha256(m.encode()).hexdigest() for m in models}
         self.answer_backend = answer_backend
+        self.fault = fault
+        self.trickle_s = trickle_s
         self.requests: list[tuple[str, str, Any]] = []
         self._server: Optional[ThreadingHTTPServer] = None
         self._thread: Optional[threading.Thread] = None
@@ -75,6 +84,38 @@ class FakeOllama:
                 self.end_headers()
                 self.wfile.write(data)
 
+            def _fault(self, fault: str) -> None:
+                import time
+
+                if fault == "garbage":
+                    return self._send(200, {"model": "fixture-model:latest", "created_at": FIXED_TIME,
+                                            "message": {"role": "assistant", "content": "I think {banana"},
+                                            "done": True, "done_reason": "stop", "prompt_eval_count": 5,
+                                            "eval_count": 4})
+                if fault == "http_500":
+                    return self._send(500, {"error": "llama runner process has terminated"})
+                if fault == "invalid_json":
+                    data = b"<html>502 Bad Gateway</html>"
+                    self.send_response(200)
+                    self.send_header("Content-Type", "application/json")
+                    self.send_header("Content-Length", str(len(data)))
+                    self.end_headers()
+                    self.wfile.write(data)
+                    return None
+                self.send_response(200)  # trickle
+                self.send_header("Content-Type", "application/json")
+                self.send_header("Content-Length", "1000000")
+                self.end_headers()
+                t_end = time.monotonic() + fake.trickle_s
+                try:
+                    while time.monotonic() < t_end:
+                        self.wfile.write(b" ")
+                        self.wfile.flush()
+                        time.sleep(0.2)
+                except OSError:  # the client hung up
+                    pass
+                return None
+
             def do_GET(self):
                 fake.requests.append(("GET", self.path, None))
                 if self.path == "/api/version":
@@ -98,6 +139,8 @@ class FakeOllama:
                     return self._send(200, {"modelfile": "", "parameters": "", "template": "{{ .Prompt }}",
                                             "details": {"format": "gguf", "family": "fixture"},
                                             "model_info": {}, "modified_at": FIXED_TIME})
+                if self.path == "/api/chat" and fake.fault is not None:
+                    return self._fault(fake.fault)
                 if self.path == "/api/chat":
                     text, tin, tout = fake._answer(body)
                     return self._send(200, {

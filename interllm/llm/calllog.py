@@ -64,10 +64,12 @@ class CallLog:
 def make_record(*, kind: str, purpose: str, context: tuple[tuple[str, str], ...], backend: str,
                 model: str, key: str, tokens_in: int, tokens_out: int, latency: float,
                 cached: bool, prompt_tokens_reused: int = 0, errors: tuple[str, ...] = (),
-                error: Optional[str] = None, sample_index: Optional[int] = None) -> dict:
+                error: Optional[str] = None, sample_index: Optional[int] = None,
+                answer: Optional[str] = None) -> dict:
     """Build one call-log record; labels from ``context`` become top-level fields.
 
-    latency: wall time of the backend call [s] (0 on a cache hit).
+    latency: wall time of the backend call [s] (0 on a cache hit); answer: the model's last
+    answer when the call failed on it (first 200 characters; for the failure report).
     """
     rec: dict[str, Any] = {k: None for k in LABEL_KEYS}
     extra = {}
@@ -84,6 +86,8 @@ def make_record(*, kind: str, purpose: str, context: tuple[tuple[str, str], ...]
     })
     if sample_index is not None:
         rec["sample_index"] = int(sample_index)
+    if answer is not None:
+        rec["answer"] = answer
     if extra:
         rec["labels"] = extra
     return rec

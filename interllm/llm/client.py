@@ -28,6 +28,7 @@ from typing import Any, Optional, Protocol
 import jsonschema
 
 from interllm.config import LLMConfig
+from interllm.errors import UserError
 from interllm.io import atomic_write_text
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key, canonical_json
 from interllm.llm.calllog import CallLog, make_record
@@ -47,7 +48,7 @@ log = logging.getLogger(__name__)
 MODELS_PIN_FILE = "models.json"  # in cache_dir: model name -> identity, for offline replay
 
 
-class LLMError(RuntimeError):
+class LLMError(UserError, RuntimeError):
     """The backend failed, or its output stayed invalid after the repair retries."""
 
 
@@ -58,6 +59,55 @@ class LLMOutputError(LLMError):
         super().__init__(msg)
         self.errors = errors
         self.text = text
+
+    def __reduce__(self):  # picklable from a worker process with its extra fields
+        return (type(self), (str(self), self.errors, self.text))
+
+
+class LLMQualityError(LLMError):
+    """Too large a share of a backend's answers failed or did not parse (``llm.max_failure_share``):
+    the model or server is broken, and an experiment on its answers would measure nothing."""
+
+
+MIN_CALLS_FOR_EARLY_STOP = 20  # judge the failure share mid-stage only after this many calls
+
+
+def call_log_failures(path: str | Path) -> tuple[int, int, str, str, str]:
+    """(calls, failed calls, a failed call's answer, backend, model) of a JSONL call log."""
+    n = failed = 0
+    sample = backend = model = ""
+    p = Path(path)
+    if not p.is_file():
+        return 0, 0, "", "", ""
+    for line in p.read_text(encoding="utf-8", errors="replace").splitlines():
+        try:
+            r = json.loads(line)
+        except ValueError:
+            continue  # a line cut by a crash
+        n += 1
+        backend, model = str(r.get("backend", backend)), str(r.get("model", model))
+        if r.get("error"):
+            failed += 1
+            sample = sample or str(r.get("answer") or r["error"])
+    return n, failed, sample, backend, model
+
+
+def check_failure_share(call_log: str | Path, cfg: LLMConfig, where: str) -> None:
+    """Raise :class:`LLMQualityError` when more than ``cfg.max_failure_share`` of the calls in
+    ``call_log`` failed (the end-of-stage check; clients also stop early, see ``note_failure``)."""
+    n, failed, sample, backend, model = call_log_failures(call_log)
+    if n and failed > cfg.max_failure_share * n:
+        raise LLMQualityError(failure_share_message(backend, model, n, failed, cfg.max_failure_share,
+                                                    sample, f"{where} (call log {call_log})"))
+
+
+def failure_share_message(backend: str, model: str, n_calls: int, n_failed: int, bound: float,
+                          sample: str, where: str) -> str:
+    share = n_failed / max(1, n_calls)
+    return (f"{where}: {n_failed} of {n_calls} LLM calls ({100 * share:.0f}%) to backend {backend!r} "
+            f"(model {model!r}) failed or gave unparseable answers, above llm.max_failure_share="
+            f"{bound:g}; sample answer: {sample[:200]!r}. Check the model and server (a base model in "
+            f"generate mode? the wrong llm.model?), or raise llm.max_failure_share to go on anyway")
 
 
 def derive_seed(*parts: Any) -> int:
@@ -159,6 +209,19 @@ class _Core:
         self.stats = ClientStats()
         self.lock = threading.RLock()
         self._model_id: Optional[str] = None
+        self.failed_calls = 0  # calls that ended in an error (unparseable after repairs, backend error)
+        self.last_failed_answer = ""
+
+    def note_failure(self, answer: str) -> Optional[LLMQualityError]:
+        """Count a failed call; the error to raise instead when the failure share is over its bound."""
+        self.failed_calls += 1
+        self.last_failed_answer = answer
+        n, bound = self.stats.calls, self.cfg.max_failure_share
+        if n >= MIN_CALLS_FOR_EARLY_STOP and self.failed_calls > bound * n:
+            return LLMQualityError(failure_share_message(
+                self.backend.name, self.backend.model_name(), n, self.failed_calls, bound, answer,
+                "stopping early"))
+        return None
 
     def model_id(self) -> str:
         """Backend model identity for cache keys; pinned in ``<cache_dir>/models.json`` so
@@ -180,9 +243,14 @@ class _Core:
                 log.info("model identity of %s from %s (backend unavailable: %s)", name, pin_path, e)
             else:
                 raise
-        if self.cache.mode == "readwrite" and pins.get(name) != mid:
+        if self.cache.mode == "readwrite" and self.cache.writable and pins.get(name) != mid:
             pins[name] = mid
-            atomic_write_text(pin_path, json.dumps(pins, indent=1, sort_keys=True) + "\n")
+            try:
+                atomic_write_text(pin_path, json.dumps(pins, indent=1, sort_keys=True) + "\n")
+            except OSError as e:
+                self.cache.writable = False
+                log.warning("LLM cache %s cannot be written (%s: %s); answers of this run are not cached",
+                            self.cache.dir, pin_path, e.strerror or e)
         self._model_id = mid
         return mid
 
@@ -331,6 +399,7 @@ class LLMClient:
                           tokens_in=tin, tokens_out=tout, latency=latency, cached=False,
                           errors=tuple(errors), error=f"{type(e).__name__}: {e}",
                           sample_index=request.options.sample_index)
+                core.note_failure(f"({type(e).__name__}: {e})")
                 raise
             dt = time.perf_counter() - t0
             latency += dt
@@ -369,7 +438,11 @@ class LLMClient:
                f"{core.cfg.repair_retries} repair retries (llm.repair_retries): {errors[-1]}")
         self._log(kind="complete", purpose=request.purpose, context=labels, key=key, tokens_in=tin,
                   tokens_out=tout, latency=latency, cached=False, prompt_tokens_reused=reused,
-                  errors=tuple(errors), error=msg, sample_index=request.options.sample_index)
+                  errors=tuple(errors), error=msg, sample_index=request.options.sample_index,
+                  answer=text[:200])
+        stop = core.note_failure(text)
+        if stop is not None:
+            raise stop from LLMOutputError(msg, tuple(errors), text)
         raise LLMOutputError(msg, tuple(errors), text)
 
     # -- score --------------------------------------------------------------------------------
@@ -405,6 +478,7 @@ class LLMClient:
                 self._log(kind="score", purpose=request.purpose, context=labels, key=key, tokens_in=0,
                           tokens_out=0, latency=time.perf_counter() - t0, cached=False,
                           error=f"{type(e).__name__}: {e}")
+                core.note_failure(f"({type(e).__name__}: {e})")
                 raise
             dt = time.perf_counter() - t0
             core.stats.backend_calls += 1
@@ -565,6 +639,18 @@ def make_backend(cfg: LLMConfig) -> Backend:
         return OllamaBackend(cfg)
     raise ValueError(f"config key 'llm.backend': {cfg.backend!r} is not valid; choose one of "
                      f"['embedded', 'ollama']")
+
+
+def preflight(cfg: LLMConfig) -> None:
+    """Before any stage output is written: is the backend there (server up, model present, model
+    file readable)? Raises the backend's error naming the URL or file and the fix. Nothing to
+    check in replay mode, where the cache answers everything."""
+    if cfg.cache_mode == "replay":
+        return
+    backend = make_backend(cfg)
+    check = getattr(backend, "check", None)
+    if check is not None:
+        check()
 
 
 def make_client(cfg: LLMConfig, call_log_path: Optional[str | Path] = None,

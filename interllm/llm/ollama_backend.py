@@ -1,7 +1,9 @@
 """Ollama backend: the official ``ollama`` Python client against ``cfg.host``.
 
 Generation: ``chat(model, messages, format=<JSON schema>, options={temperature, seed, top_p,
-num_predict, num_ctx})``; the per-call timeout is the HTTP client's (``llm.timeout_s``).
+num_predict, num_ctx})``. ``llm.timeout_s`` bounds every read of the HTTP client and the whole
+call (:func:`interllm.llm.deadline.call_with_deadline`); a server error (HTTP 5xx) or a body that
+is not Ollama's JSON is an :class:`OllamaProtocolError` naming the URL.
 
 Scoring: Ollama returns log-probs only for tokens it generates (no prompt/echo log-probs), so
 continuation likelihoods cannot be read off. ``score()`` therefore asks the model for a JSON
@@ -21,12 +23,17 @@ from collections.abc import Sequence
 from typing import Any, Optional
 
 from interllm.config import LLMConfig
+from interllm.errors import UserError
 from interllm.llm.embedded import Generation, Scores
 from interllm.llm.types import LLMOptions, Message
 
 
-class OllamaUnavailable(RuntimeError):
+class OllamaUnavailable(UserError, RuntimeError):
     """The Ollama server is unreachable or lacks the model; the message says how to fix it."""
+
+
+class OllamaProtocolError(UserError, RuntimeError):
+    """The server answered, but not as Ollama does (HTTP error status, a body that is not JSON)."""
 
 
 def _names(model: str) -> set[str]:
@@ -61,12 +68,7 @@ class OllamaBackend:
                                  f"llm.backend=embedded")
 
     def _list(self) -> list[Any]:
-        import httpx
-
-        try:
-            return list(self.client.list().models)
-        except (ConnectionError, httpx.HTTPError, OSError) as e:
-            raise self._down(e) from None
+        return list(self._call("/api/tags", lambda c: c.list()).models)
 
     def check(self) -> str:
         """Verify server and model; return the model digest."""
@@ -87,21 +89,39 @@ class OllamaBackend:
         return self._digest or ""
 
     def _chat(self, messages: list[dict], schema: Optional[dict], options: dict):
+        return self._call("/api/chat", lambda c: c.chat(model=self.cfg.model, messages=messages, format=schema,
+                                                        options=options, stream=False))
+
+    def _call(self, endpoint: str, fn):
+        """``fn(client)`` within the whole-call deadline, with every failure named by URL and fix."""
         import httpx
         import ollama
 
+        from interllm.llm.deadline import DeadlineExceeded, call_with_deadline
+
+        client = self.client
+        url = f"{self.cfg.host}{endpoint}"
         try:
-            return self.client.chat(model=self.cfg.model, messages=messages, format=schema,
-                                    options=options, stream=False)
+            return call_with_deadline(lambda: fn(client), self.cfg.timeout_s, f"the Ollama call to {url} (llm.host)")
+        except DeadlineExceeded:
+            self._client = None  # drop the stuck connection; the next call opens a new one
+            raise
         except ollama.ResponseError as e:
             if e.status_code == 404:
                 raise OllamaUnavailable(f"model {self.cfg.model!r} is not on the Ollama server at "
                                         f"{self.cfg.host}; run `ollama pull {self.cfg.model}`") from None
-            raise
+            raise OllamaProtocolError(f"the Ollama server answered {url} (llm.host) with HTTP {e.status_code}: "
+                                      f"{str(e.error)[:200]!r}; check its log (`ollama serve` output) and the "
+                                      f"model {self.cfg.model!r}") from None
         except httpx.TimeoutException as e:
-            raise TimeoutError(f"Ollama call exceeded llm.timeout_s={self.cfg.timeout_s} s: {e}") from None
-        except (ConnectionError, httpx.HTTPError) as e:
+            raise TimeoutError(f"a read from {url} (llm.host) exceeded llm.timeout_s={self.cfg.timeout_s} s: "
+                               f"{e}; raise llm.timeout_s or check the server") from None
+        except (ConnectionError, httpx.HTTPError, OSError) as e:
             raise self._down(e) from None
+        except (ValueError, KeyError, TypeError, AttributeError) as e:  # a 200 whose body is not Ollama's JSON
+            raise OllamaProtocolError(f"the server answered {url} (llm.host) with a body that is not Ollama's "
+                                      f"JSON ({type(e).__name__}: {str(e)[:200]}); is llm.host an Ollama "
+                                      f"server?") from None
 
     def generate(self, messages: Sequence[Message], schema: Optional[dict], options: LLMOptions,
                  seed: int) -> Generation:

@@ -48,6 +48,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
+from interllm.errors import UserError
 from interllm.io import atomic_write_text, read_json
 from interllm.planning.domain import Action
 
@@ -64,7 +65,7 @@ PER_MISSION_FIELDS = ("planner", "scene", "mission", "n_commands", "n_objects", 
                       "llm_tokens_out", "sim_time")
 
 
-class MetricsInputError(ValueError):
+class MetricsInputError(UserError, ValueError):
     """A run record or scene file is malformed; the message names the file and the key."""
 
 
@@ -112,6 +113,28 @@ def validate_record(rec: Mapping, where: str = "MissionRecord") -> None:
         for ai, a in enumerate(c["actions"]):
             for k in ("action", "success", "time"):
                 _require(a, k, f"{w}.actions[{ai}]")
+
+
+def call_log_counts(path: str | os.PathLike) -> dict:
+    """Calls and failed calls (an error: unparseable after the repairs, or the backend failed) of a
+    JSONL call log, in all and per planner; a missing log counts nothing."""
+    import json
+
+    out: dict[str, Any] = {"calls": 0, "failed": 0, "failed_by_planner": {}}
+    p = Path(path)
+    if not p.is_file():
+        return out
+    for line in p.read_text(encoding="utf-8", errors="replace").splitlines():
+        try:
+            r = json.loads(line)
+        except ValueError:
+            continue  # a line cut by a crash
+        out["calls"] += 1
+        if r.get("error"):
+            out["failed"] += 1
+            planner = str(r.get("planner") or "")
+            out["failed_by_planner"][planner] = out["failed_by_planner"].get(planner, 0) + 1
+    return out
 
 
 def load_runs(runs_dir: str | os.PathLike) -> list[dict]:
@@ -363,13 +386,14 @@ def _clean(v: Any, ndigits: int = 6) -> Any:
 
 def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: Any,
               out_dir: str | os.PathLike | None = None, temperature: Optional[float] = None,
-              reference: str = "inter_llm") -> dict:
+              reference: str = "inter_llm", call_logs: Optional[Mapping[str, os.PathLike]] = None) -> dict:
     """Compute every table of the runs under ``runs_dir`` and write them to ``out_dir``.
 
     cfg: ExperimentConfig (uses ``sim.gamma_nav``, ``sim.gamma_man``, ``metrics.*``,
     ``llm.temperature``); out_dir: default ``<cfg.data_dir>/metrics``; temperature: the LLM
     temperature of these runs for Table II (default ``cfg.llm.temperature``); reference: the planner
-    whose improvement over the others is reported.
+    whose improvement over the others is reported; call_logs: {stage: llm_calls.jsonl} whose calls
+    and failed calls are counted into ``llm_calls`` (default: the missions stage's, in runs_dir).
 
     Writes (atomically): ``metrics.json`` (DVC metrics, rounded floats, sorted keys),
     ``per_object.csv``, ``per_command.csv``, ``per_mission.csv``, ``cumulative.csv`` (x =
@@ -407,6 +431,8 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
 
     planners: dict[str, dict] = {}
     usage = stats.llm_usage(pm)
+    logs = dict(call_logs) if call_logs is not None else {"missions": Path(runs_dir) / "llm_calls.jsonl"}
+    calls = {stage: call_log_counts(path) for stage, path in sorted(logs.items())}
     counts = stats.fulfilment_counts(po)
     for p in sorted({r["planner"] for r in pm}):
         rows_m = [r for r in pm if r["planner"] == p]
@@ -424,6 +450,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         for k in ("sr_man", "sr_obj"):  # per object
             d[k] = sum(r[k] for r in rows_o) / max(1, len(rows_o))
         d.update(usage[p])
+        d["llm_failed_calls"] = calls.get("missions", {}).get("failed_by_planner", {}).get(p, 0)
         planners[p] = d
     result = {
         "planners": planners,
@@ -432,6 +459,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         "semantic_accuracy": {f"{r['planner']}@{r['temperature']}": {
             k: r[k] for k in ("accuracy", "unknown_share", "accuracy_known", "n_matched", "n_inferences")}
             for r in sem},
+        "llm_calls": {stage: {k: c[k] for k in ("calls", "failed")} for stage, c in calls.items()},
         "settings": {"gamma_nav": g.nav, "gamma_man": g.man, "gamma_obj": g.obj, "bootstrap_samples": B,
                      "ci": ci, "seed": seed, "temperature": temp, "reference": reference,
                      "n_runs": len(records)},
