@@ -5,4 +5,4 @@ from pipeline._common import stage_main
 
 if __name__ == "__main__":
     stage_main("aggregate", lambda cfg, raw, data: run_aggregate(
-        cfg, data / "runs", data / "scenes", data / "metrics"))
+        cfg, data / "runs", data / "scenes", data / "metrics", data / "candidates"))

@@ -1,7 +1,14 @@
 """Stage scenes: scene graphs, occupancy grids, MuJoCo worlds, missions and pictures."""
 
 from interllm.experiment import run_scenes
+from interllm.llm.client import preflight
 from pipeline._common import stage_main
 
+
+def main(cfg, raw, data) -> None:
+    preflight(cfg.llm)  # a server that is down stops the pipeline before any stage writes
+    run_scenes(cfg, data / "scenes")
+
+
 if __name__ == "__main__":
-    stage_main("scenes", lambda cfg, raw, data: run_scenes(cfg, data / "scenes"))
+    stage_main("scenes", main)

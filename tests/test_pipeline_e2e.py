@@ -45,6 +45,7 @@ def quick_repo(tmp_path_factory):
     _copy_tree(repo)
     env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}",
            "INTERLLM_PROGRESS": "0", "DVC_NO_ANALYTICS": "1",
+           "INTERLLM_PYTHON": sys.executable,  # the copy has no .venv for pipeline/stage to find
            "INTERLLM_IMPORTS_LOG": str(tmp_path_factory.mktemp("imports") / "imports.jsonl")}
     _run(["git", "init", "-q"], repo, env)
     _run(["git", "-c", "user.email=t@t", "-c", "user.name=t", "add", "-A"], repo, env)
@@ -118,3 +119,42 @@ def test_dvc_exp_run_with_a_param_is_listed(quick_repo):
     _run([str(BIN / "dvc"), "exp", "run", "-S", "experiment=quick", "-S", "planner.M=1"], repo, env)
     show = _run([str(BIN / "dvc"), "exp", "show", "--json"], repo, env)
     assert '"M": 1' in show.replace(" ", "").replace('"M":1', '"M": 1')
+
+
+def test_bytecode_and_tool_caches_do_not_change_stage_dependencies(quick_repo):
+    """.dvcignore: bytecode written by any import (or absent on a fresh clone) is not a code change."""
+    repo, env, _ = quick_repo
+    for d in ("interllm/llm", "interllm/scene", "pipeline", "interllm"):
+        cache = repo / d / "__pycache__"
+        cache.mkdir(exist_ok=True)
+        (cache / "fresh.cpython-311.pyc").write_bytes(b"\0" * 64)
+    (repo / "interllm" / ".pytest_cache").mkdir(exist_ok=True)
+    status = _run([str(BIN / "dvc"), "status"], repo, env)
+    assert "up to date" in status.lower(), status
+    for d in ("interllm/llm", "interllm/scene", "pipeline", "interllm"):  # and after removing all bytecode
+        shutil.rmtree(repo / d / "__pycache__")
+    status = _run([str(BIN / "dvc"), "status"], repo, env)
+    assert "up to date" in status.lower(), status
+
+
+def test_a_failed_stage_names_the_key_and_how_to_restore_its_outputs(quick_repo):
+    """Runs last in this module: it leaves a failed experiment in the copy's workspace."""
+    import re
+
+    repo, env, _ = quick_repo
+    outs = {"scenes": "data/scenes", "candidates": "data/candidates"}
+
+    def listing(stage):
+        return sorted((p.relative_to(repo).as_posix(), p.read_bytes()) for p in (repo / outs[stage]).rglob("*")
+                      if p.is_file())
+
+    before = {stage: listing(stage) for stage in outs}
+    r = subprocess.run([str(BIN / "dvc"), "exp", "run", "-S", "planner.M=abc"], cwd=repo, env=env,
+                       capture_output=True, text=True, timeout=600)
+    out = r.stdout + r.stderr
+    assert r.returncode != 0 and "Traceback" not in out
+    assert "config key 'planner.M'" in out and "must be an integer, got 'abc'" in out
+    m = re.search(r"`dvc checkout (\w+)` restores them", out)
+    assert m and m[1] in outs, out
+    _run([str(BIN / "dvc"), "checkout", m[1]], repo, env)
+    assert listing(m[1]) == before[m[1]]  # DVC removed them before the stage failed; checkout restored them
