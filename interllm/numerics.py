@@ -204,6 +204,7 @@ def effective() -> dict:
     flags = cpu_flags()
     return {
         "policy": p.policy, "pinned": pinned_ok(blas), "reason": p.reason,
+        "pinnable": pinned_environment()[1] == "",  # False: another ISA or no AVX2, bit-identity impossible
         "variables": {k: os.environ.get(k) for k in PINNED_VARS},
         "overridden_caller_values": dict(p.overridden),
         "numpy_loaded_before_pin": p.numpy_was_loaded,
