@@ -23,7 +23,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without install
 
 from interllm.config import LLMConfig  # noqa: E402
-from interllm.llm import LLMRequest, Message, ScoreRequest, derive_seed, make_client  # noqa: E402
+from interllm.core.seeding import llm_sample_seed  # noqa: E402
+from interllm.llm import LLMRequest, Message, ScoreRequest, make_client  # noqa: E402
 from interllm.llm.embedded import EmbeddedBackend  # noqa: E402
 
 SCHEMA = {"type": "object", "properties": {"plan": {"type": "array", "minItems": 1, "maxItems": 3, "items": {
@@ -45,7 +46,7 @@ def command_calls(client, m: int, regens: int, tag: str):
     user = Message("user", "Command: bring breakfast to the dining table. Give a plan as JSON.")
     calls = []
     for j in range(m):
-        opts = client.default_options(max_tokens=96, sample_index=j, seed=derive_seed(0, tag, j))
+        opts = client.default_options(max_tokens=96, sample_index=j, seed=llm_sample_seed(0, tag, j))
         r = client.complete(LLMRequest(purpose="candidates", messages=(system, user), schema=SCHEMA, options=opts))
         calls.append(r)
         msgs = (system, user)
@@ -130,7 +131,7 @@ def main() -> None:
                                             Message("user", "Command: bring breakfast to the dining table. "
                                                             "Give a plan as JSON.")),
             schema=SCHEMA, options=replay.default_options(max_tokens=96, sample_index=i % a.m,
-                                                          seed=derive_seed(0, "warm", i % a.m))))
+                                                          seed=llm_sample_seed(0, "warm", i % a.m))))
     dt = time.perf_counter() - t0
     backend_rate = len(calls) / gen_s
     print(f"warm-cache replay: {n} calls in {dt:.2f} s = {n / dt:.0f} calls/s (goal >= 1000); backend "

@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from interllm.planning.domain import Action
+from interllm.core.actions import Action
+from interllm.core.results import ActionResult, ManipulationTrial, Trajectory
 from interllm.record import McapRecorder, NullRecorder, read_run, replay
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.grid import rasterize
-from interllm.sim.results import ActionResult, ManipulationTrial, Trajectory
 
 JOINTS = tuple(f"joint_{i}" for i in range(1, 8))
 

@@ -29,7 +29,8 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from interllm.config import MissionConfig, SceneConfig, SimConfig  # noqa: E402
-from interllm.planning.domain import Action  # noqa: E402
+from interllm.core.actions import Action  # noqa: E402
+from interllm.core.frames import yaw_quat_wxyz  # noqa: E402
 from interllm.scene.generator import generate_scene  # noqa: E402
 from interllm.scene.missions import generate_missions  # noqa: E402
 from interllm.sim import manipulation as man  # noqa: E402
@@ -54,7 +55,7 @@ def ik_benchmark(world: World, n_targets: int = 40) -> None:
     for o, (bx, by, byaw) in jobs:
         ik = man.local_ik(world, o.furniture)
         ik.model.body_pos[ik.base_body] = (bx, by, 0.0)
-        ik.model.body_quat[ik.base_body] = man.yaw_quat(byaw)
+        ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(byaw)
         rot = man._topdown_rotation((bx, by), o.position[:2])
         avoid = ik.furniture_geoms + [g for k, g in ik.object_geoms.items() if k != o.id]
         s = man.solve_ik(ik, TUCK, np.array(o.position) + [0, 0, man.PRE_GRASP_HEIGHT], rot, cfg, avoid)

@@ -8,6 +8,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from interllm.core import jsonfmt
 from interllm.errors import UserError
 
 
@@ -54,13 +55,8 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def dumps_json(obj: Any) -> str:
-    """Canonical JSON: sorted keys, fixed indent, trailing newline (byte-stable)."""
-    return json.dumps(obj, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n"
-
-
 def write_json(path: str | os.PathLike, obj: Any) -> None:
-    atomic_write_text(path, dumps_json(obj))
+    atomic_write_text(path, jsonfmt.pretty(obj))
 
 
 class InputFileError(UserError, ValueError):
@@ -112,22 +108,3 @@ def parse_json(text: str, path: str | os.PathLike) -> Any:
 def read_json(path: str | os.PathLike) -> Any:
     """Read a UTF-8 JSON file; any problem is an :class:`InputFileError` naming the file and where."""
     return parse_json(decode_utf8(read_bytes(path), path), path)
-
-
-def write_jsonl(path: str | os.PathLike, rows: list[dict]) -> None:
-    atomic_write_text(path, "".join(json.dumps(r, sort_keys=True, ensure_ascii=False) + "\n"
-                                    for r in rows))
-
-
-def read_jsonl(path: str | os.PathLike) -> list[dict]:
-    out = []
-    with open(path, encoding="utf-8") as f:
-        for i, line in enumerate(f, 1):
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                out.append(json.loads(line))
-            except json.JSONDecodeError as e:
-                raise ValueError(f"{path}:{i}: invalid JSON line: {e.msg}") from None
-    return out

@@ -21,7 +21,8 @@ import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any, Optional
 
-from interllm.llm.client import derive_seed, schema_instance
+from interllm.core.seeding import llm_sample_seed
+from interllm.llm.client import schema_instance
 from interllm.llm.types import LLMOptions, Message
 
 FIXED_TIME = "2024-01-01T00:00:00Z"
@@ -65,7 +66,7 @@ class FakeOllama:
                            top_p=float(opts.get("top_p", 0.95)), max_tokens=int(opts.get("num_predict", 64)))
             g = self.answer_backend.generate(tuple(msgs), schema, o, seed)
             return g.text, g.tokens_in, g.tokens_out
-        rng = random.Random(derive_seed(seed, [[m.role, m.content] for m in msgs].__repr__()))
+        rng = random.Random(llm_sample_seed(seed, [[m.role, m.content] for m in msgs].__repr__()))
         text = json.dumps(schema_instance(schema, rng), sort_keys=True) if schema else "fixture answer"
         return text, sum(len(m.content.split()) for m in msgs), max(1, len(text) // 4)
 

@@ -13,6 +13,7 @@ import jsonschema
 import pytest
 
 from interllm.config import LLMConfig
+from interllm.core.seeding import llm_sample_seed
 from interllm.llm import (
     DeterministicBackend,
     LLMOutputError,
@@ -20,7 +21,6 @@ from interllm.llm import (
     Message,
     ScoreRequest,
     TemplateError,
-    derive_seed,
     load_template,
     make_client,
     schema_instance,
@@ -56,7 +56,7 @@ def test_repair_retry_feeds_error_back(tmp_path):
     assert [m.role for m in msgs] == ["user", "assistant", "user", "assistant", "user"]
     assert r.errors[1] in msgs[4].content
     # each attempt has its own derived seed
-    assert [s for _, s in seen] == [derive_seed(0, 0, a) for a in range(3)]
+    assert [s for _, s in seen] == [llm_sample_seed(0, 0, a) for a in range(3)]
     assert c.stats.repairs == 2 and c.stats.backend_calls == 3
     rec = json.loads((tmp_path / "calls.jsonl").read_text().splitlines()[-1])
     assert rec["errors"] == list(r.errors) and rec["cache_hit"] is False and rec["error"] is None
@@ -133,14 +133,14 @@ def test_bad_requests_have_clear_errors(tmp_path):
         c.complete(_req(template="no_such_template_xyz"))
 
 
-def test_derive_seed_is_deterministic_across_processes():
-    here = derive_seed(0, "candidates", "m1/c2", 3)
-    code = "from interllm.llm import derive_seed; print(derive_seed(0, 'candidates', 'm1/c2', 3))"
+def test_llm_sample_seed_is_deterministic_across_processes():
+    here = llm_sample_seed(0, "candidates", "m1/c2", 3)
+    code = "from interllm.core.seeding import llm_sample_seed; print(llm_sample_seed(0, 'candidates', 'm1/c2', 3))"
     there = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True,
                            env={"PYTHONHASHSEED": "7", "PATH": "/usr/bin"}).stdout.strip()
     assert int(there) == here and 0 <= here < 2**31
-    assert len({derive_seed(0, "candidates", j) for j in range(100)}) == 100
-    assert derive_seed("a", "b") != derive_seed("b", "a") and derive_seed(1, "x") != derive_seed(2, "x")
+    assert len({llm_sample_seed(0, "candidates", j) for j in range(100)}) == 100
+    assert llm_sample_seed("a", "b") != llm_sample_seed("b", "a") and llm_sample_seed(1, "x") != llm_sample_seed(2, "x")
 
 
 def test_templates_load_render_and_hash(tmp_path):

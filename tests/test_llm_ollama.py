@@ -14,7 +14,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from ollama_fixture import FakeOllama, free_port  # noqa: E402
 
 from interllm.config import LLMConfig  # noqa: E402
-from interllm.llm import LLMRequest, Message, ScoreRequest, derive_seed, make_client  # noqa: E402
+from interllm.core.seeding import llm_sample_seed  # noqa: E402
+from interllm.llm import LLMRequest, Message, ScoreRequest, make_client  # noqa: E402
 from interllm.llm.client import check_answer  # noqa: E402
 from interllm.llm.ollama_backend import OllamaBackend, OllamaUnavailable  # noqa: E402
 
@@ -49,7 +50,7 @@ def test_complete_over_http_sends_schema_and_options(tmp_path):
     with FakeOllama() as srv:
         client = make_client(_cfg(srv.host, tmp_path), call_log_path=tmp_path / "calls.jsonl")
         opts = client.default_options(temperature=0.7, max_tokens=50, sample_index=2,
-                                      seed=derive_seed(0, "candidates", 2))
+                                      seed=llm_sample_seed(0, "candidates", 2))
         req = LLMRequest(purpose="candidates", messages=(Message("system", "You plan."),
                                                          Message("user", "Make breakfast.")),
                          schema=SCHEMA, options=opts)
@@ -62,7 +63,7 @@ def test_complete_over_http_sends_schema_and_options(tmp_path):
         assert body["format"] == SCHEMA and body["model"] == "fixture-model"
         assert body["options"]["temperature"] == 0.7 and body["options"]["num_predict"] == 50
         assert body["options"]["num_ctx"] == 8192 and body["options"]["top_p"] == 0.95
-        assert body["options"]["seed"] == derive_seed(opts.seed, 2, 0)
+        assert body["options"]["seed"] == llm_sample_seed(opts.seed, 2, 0)
         assert [m["role"] for m in body["messages"]] == ["system", "user"]
         # second identical request: served from the cache, no new HTTP chat
         r2 = client.complete(req)

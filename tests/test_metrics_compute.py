@@ -8,6 +8,7 @@ import csv
 import pytest
 
 from interllm.config import ExperimentConfig
+from interllm.core.results import man_cost, nav_cost
 from interllm.metrics.compute import (
     Gammas,
     MetricsInputError,
@@ -18,7 +19,6 @@ from interllm.metrics.compute import (
     read_csv,
     validate_record,
 )
-from interllm.sim.results import man_cost, nav_cost
 
 SCENE = {"category": {"apple_1": "apple", "bread_1": "bread", "laptop_1": "laptop", "mug_1": "mug",
                       "book_1": "book"},

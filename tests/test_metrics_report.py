@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from interllm.config import ExperimentConfig, from_dict
+from interllm.core.results import man_cost, nav_cost
 from interllm.io import write_json
 from interllm.metrics.compute import aggregate, read_csv
-from interllm.sim.results import man_cost, nav_cost
 
 PLANNERS = {"inter_llm": 0.6, "sayplan": 1.4, "moma_llm": 1.0}  # cost scale: inter_llm cheapest
 CATS = ["apple", "bread", "milk", "laptop", "notebook", "cellphone", "book", "newspaper", "mug"]

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from interllm.core.seeding import bootstrap_seed
 from interllm.metrics.stats import (
     bootstrap_mean_ci,
     compare_planners,
     cost_class,
-    derive_seed,
     fulfilment_counts,
     group_mean_ci,
     improvement_pct,
@@ -39,7 +39,7 @@ def test_bootstrap_coverage_near_nominal():
     reps = 200
     for i in range(reps):
         x = rng.normal(5.0, 2.0, 30)
-        _, lo, hi = bootstrap_mean_ci(x, 1000, 0.95, derive_seed(0, f"rep{i}"))
+        _, lo, hi = bootstrap_mean_ci(x, 1000, 0.95, bootstrap_seed(0, f"rep{i}"))
         hits += lo <= 5.0 <= hi
     assert 0.90 <= hits / reps <= 0.98
 
@@ -96,6 +96,6 @@ def test_group_mean_ci_and_counts():
     assert u["llm_calls"] == 8 and u["llm_calls_per_mission"] == 2.0 and u["llm_tokens_in"] == 40
 
 
-def test_derive_seed_stable():
-    assert derive_seed(0, "x") == derive_seed(0, "x") != derive_seed(1, "x")
-    assert derive_seed(0, "inter_llm") == 3799621879  # CRC32 of b"0:inter_llm": same in every process
+def test_bootstrap_seed_stable():
+    assert bootstrap_seed(0, "x") == bootstrap_seed(0, "x") != bootstrap_seed(1, "x")
+    assert bootstrap_seed(0, "inter_llm") == 3799621879  # CRC32 of b"0:inter_llm": same in every process

@@ -7,12 +7,12 @@ import re
 
 import numpy as np
 
+from interllm.core.actions import Action, State
+from interllm.core.results import ActionResult, ManipulationTrial, man_cost, nav_cost
 from interllm.llm.types import LLMResponse, ScoreResponse
 from interllm.planning.costs import path_length
-from interllm.planning.domain import Action, State
 from interllm.planning.feasibility import action_violations, apply
 from interllm.scene.graph import Command, Door, Furniture, Goal, Mission, Room, SceneGraph, SceneObject
-from interllm.sim.results import ActionResult, ManipulationTrial, man_cost, nav_cost
 
 
 def tiny_scene() -> SceneGraph:

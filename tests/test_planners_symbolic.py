@@ -6,10 +6,10 @@ import pytest
 from test_planners_fakes import FakeScoreClient, ScriptedClient, SymbolicWorld, tiny_mission, tiny_scene
 
 from interllm.config import ExperimentConfig
+from interllm.core.actions import Action, plan_to_list
 from interllm.planners import names
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
-from interllm.planning.domain import Action, plan_to_list
 
 
 class ListRecorder:

@@ -6,9 +6,9 @@ import pytest
 from test_planners_fakes import FakeScoreClient
 
 from interllm.config import ExperimentConfig, MissionConfig
+from interllm.core.actions import State, plan_from_list
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
-from interllm.planning.domain import State, plan_from_list
 from interllm.planning.feasibility import check_plan
 
 pytest.importorskip("mujoco")

@@ -1,6 +1,8 @@
 import numpy as np
 import pytest
 
+from interllm.core.actions import Action, State
+from interllm.core.results import ActionResult
 from interllm.planning.costs import (
     UNREACHABLE_COST,
     decode_cost,
@@ -8,9 +10,7 @@ from interllm.planning.costs import (
     estimate_navigation,
     plan_total,
 )
-from interllm.planning.domain import Action, State
 from interllm.planning.memory import KnownCosts
-from interllm.sim.results import ActionResult
 
 
 @pytest.mark.parametrize("cost,label", [(0.0, "easy"), (4.999, "easy"), (5.0, "medium"), (10.0, "medium"),

@@ -1,7 +1,7 @@
 import pytest
 from test_planners_fakes import tiny_scene
 
-from interllm.planning.domain import Action, State
+from interllm.core.actions import Action, State
 from interllm.planning.feasibility import InfeasibleAction, apply, check_plan, simulate_plan
 
 

@@ -3,8 +3,9 @@ import pytest
 from test_planners_fakes import FakeScoreClient, ScriptedClient, tiny_mission, tiny_scene
 
 from interllm.config import ExperimentConfig
+from interllm.core.actions import Action, State
+from interllm.core.seeding import planning_seed
 from interllm.planning import proposals as P
-from interllm.planning.domain import Action, State
 from interllm.planning.feasibility import check_plan
 from interllm.planning.memory import KnownCosts
 
@@ -117,8 +118,8 @@ def test_sample_label_argmax_at_zero_temperature(scores, label):
     assert P.sample_label(scores, 0.0, 1) == label
 
 
-def test_derive_seed_is_stable():
-    assert P.derive_seed(0, "candidates", "m000", "breakfast") == P.derive_seed(0, "candidates", "m000",
+def test_planning_seed_is_stable():
+    assert planning_seed(0, "candidates", "m000", "breakfast") == planning_seed(0, "candidates", "m000",
                                                                                  "breakfast")
-    assert P.derive_seed(0, "a") != P.derive_seed(1, "a")
-    assert P.derive_seed(0, "candidates") == 82746167  # sha256-based, not salted per process
+    assert planning_seed(0, "a") != planning_seed(1, "a")
+    assert planning_seed(0, "candidates") == 82746167  # sha256-based, not salted per process

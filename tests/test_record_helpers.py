@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from interllm.planning.domain import Action
+from interllm.core.actions import Action
+from interllm.core.results import ActionResult, ManipulationTrial, Trajectory
 from interllm.record.mcap_writer import McapRecorder
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.grid import rasterize
-from interllm.sim.results import ActionResult, ManipulationTrial, Trajectory
 
 JOINTS = ("shoulder", "elbow", "wrist")
 

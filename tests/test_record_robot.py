@@ -16,9 +16,10 @@ from test_record_helpers import make_actions, make_scene, rerun_cli, run_cli
 from test_sim_world import house, mission, nav
 
 from interllm.config import SimConfig
-from interllm.planning.domain import Action
+from interllm.core.actions import Action
+from interllm.core.frames import GRIP_FRAME
 from interllm.record import McapRecorder, read_run, replay
-from interllm.sim.kinematics import GRIP_FRAME, RobotKinematics, quat_mul_xyzw
+from interllm.sim.kinematics import RobotKinematics, quat_mul_xyzw
 from interllm.sim.robot import ARM_JOINTS
 from interllm.sim.world import World
 
@@ -214,7 +215,7 @@ def test_without_a_robot_model_a_held_object_is_left_out_of_the_drawing(carried,
 
 
 def test_an_event_for_an_unknown_object_writes_nothing_of_the_action(tmp_path):
-    from interllm.sim.results import ObjectEvent
+    from interllm.core.results import ObjectEvent
 
     r, ctx = make_actions(1, 5)[0]
     r.object_events = [ObjectEvent(1.0, "ghost_1", "world", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))]

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from interllm.config import SimConfig
-from interllm.planning.domain import Action, State
+from interllm.core.actions import Action, State
+from interllm.core.results import ActionResult, man_cost, nav_cost
 from interllm.planning.search import path_length
 from interllm.scene.graph import Door, Furniture, Mission, Room, SceneGraph, SceneObject, Wall
-from interllm.sim.results import ActionResult, man_cost, nav_cost
 from interllm.sim.world import World
 
 # Room A [0,4]x[0,4] and room B [4,8]x[0,4]; the wall x = 4 has door_a (y in [0.5, 1.5]) and

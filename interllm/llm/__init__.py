@@ -4,7 +4,7 @@
     client = make_client(cfg.llm, call_log_path="data/runs/llm_calls.jsonl", context={"stage": "candidates"})
     resp = client.with_context(planner="inter_llm", mission="m0").complete(
         LLMRequest(purpose="candidates", messages=(Message("user", "..."),), schema={...},
-                   options=client.default_options(sample_index=j, seed=derive_seed(base, "candidates", j))))
+                   options=client.default_options(sample_index=j, seed=planning_seed(base, "candidates", j))))
 """
 
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
@@ -16,7 +16,6 @@ from interllm.llm.client import (
     LLMError,
     LLMOutputError,
     check_answer,
-    derive_seed,
     make_backend,
     make_client,
     schema_instance,
@@ -36,5 +35,5 @@ __all__ = [
     "CacheMissError", "CallLog", "ClientStats", "DeterministicBackend", "LLMClient", "LLMClientProtocol",
     "LLMError", "LLMOptions", "LLMOutputError", "LLMRequest", "LLMResponse", "Message", "ResponseCache",
     "ScoreRequest", "ScoreResponse", "Template", "TemplateError", "cache_key", "check_answer",
-    "derive_seed", "load_template", "make_backend", "make_client", "schema_instance", "template_names",
+    "load_template", "make_backend", "make_client", "schema_instance", "template_names",
 ]

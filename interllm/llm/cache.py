@@ -21,9 +21,10 @@ import json
 import logging
 import os
 from pathlib import Path
-from typing import Any, Optional
+from typing import Optional
 
 from interllm.config import CACHE_MODES
+from interllm.core import jsonfmt
 from interllm.errors import UserError
 from interllm.io import atomic_write_text
 
@@ -40,19 +41,14 @@ class CacheCorruptError(ValueError):
     """An entry failed to parse or its checksum does not match."""
 
 
-def canonical_json(obj: Any) -> str:
-    """Canonical compact JSON used for keys and checksums (sorted keys, no NaN)."""
-    return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-
-
 def cache_key(payload: dict) -> str:
     """sha256 hex of the canonical JSON of ``payload`` (plus the cache format version)."""
-    body = canonical_json({"cache_format": CACHE_FORMAT, "request": payload})
+    body = jsonfmt.compact({"cache_format": CACHE_FORMAT, "request": payload})
     return hashlib.sha256(body.encode("utf-8")).hexdigest()
 
 
 def response_checksum(response: dict) -> str:
-    return hashlib.sha256(canonical_json(response).encode("utf-8")).hexdigest()
+    return hashlib.sha256(jsonfmt.compact(response).encode("utf-8")).hexdigest()
 
 
 class ResponseCache:
@@ -125,7 +121,7 @@ class ResponseCache:
             return None
         entry = {"cache_format": CACHE_FORMAT, "key": key, "request": request_summary,
                  "response": response, "checksum": response_checksum(response)}
-        text = json.dumps(entry, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n"
+        text = jsonfmt.pretty(entry)
         path = self.path_for(key)
         try:
             atomic_write_text(path, text)

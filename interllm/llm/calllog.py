@@ -8,12 +8,13 @@ recorder uses it). The log is diagnostic output: latency is wall time and never 
 
 from __future__ import annotations
 
-import json
 import os
 import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Optional
+
+from interllm.core import jsonfmt
 
 LABEL_KEYS = ("stage", "planner", "scene", "mission", "command")
 
@@ -39,7 +40,7 @@ class CallLog:
 
     def write(self, record: dict) -> None:
         """Append one record (a JSON-serialisable dict) as one line and flush it."""
-        line = json.dumps(record, sort_keys=True, ensure_ascii=False, default=str) + "\n"
+        line = jsonfmt.message(record, default=str) + "\n"
         with self._lock:
             if self._fh is not None:
                 self._fh.write(line)

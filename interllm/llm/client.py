@@ -7,8 +7,8 @@ request's JSON schema (bounded repair retries feed the error back to the model) 
 Every call is appended to the call log. ``with_context(**labels)`` returns a view whose calls
 carry extra call-log labels (planner, scene, mission, command).
 
-Sampling seeds: attempt ``a`` of a request uses ``derive_seed(options.seed, options.sample_index,
-a)``; callers derive ``options.seed`` for candidate j with ``derive_seed(base, purpose, ..., j)``.
+Sampling seeds: attempt ``a`` of a request uses ``llm_sample_seed(options.seed, options.sample_index,
+a)`` (``interllm.core.seeding``).
 """
 
 from __future__ import annotations
@@ -28,9 +28,11 @@ from typing import Any, Optional, Protocol
 import jsonschema
 
 from interllm.config import LLMConfig
+from interllm.core import jsonfmt
+from interllm.core.seeding import llm_sample_seed
 from interllm.errors import UserError
 from interllm.io import atomic_write_text
-from interllm.llm.cache import CacheMissError, ResponseCache, cache_key, canonical_json
+from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog, make_record
 from interllm.llm.embedded import Generation, Scores
 from interllm.llm.prompts import template_hash
@@ -110,13 +112,6 @@ def failure_share_message(backend: str, model: str, n_calls: int, n_failed: int,
             f"generate mode? the wrong llm.model?), or raise llm.max_failure_share to go on anyway")
 
 
-def derive_seed(*parts: Any) -> int:
-    """Deterministic 31-bit seed from any JSON-able parts (sha256 based; never Python's hash())."""
-    body = json.dumps([p if isinstance(p, (int, float, str, bool, type(None))) else str(p)
-                       for p in parts], sort_keys=True, separators=(",", ":"))
-    return int.from_bytes(hashlib.sha256(body.encode("utf-8")).digest()[:4], "big") & 0x7FFFFFFF
-
-
 class Backend(Protocol):
     name: str
 
@@ -149,12 +144,6 @@ class ClientStats:
     failures: int = 0
     backend_seconds: float = 0.0  # wall time in the backend [s] (diagnostics only)
 
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
-
-
-def _jsonable(obj: Any) -> Any:
-    return json.loads(json.dumps(obj, sort_keys=True))
 
 
 def validate_schema(schema: dict) -> None:
@@ -317,7 +306,7 @@ class LLMClient:
             "kind": "complete", "backend": self.backend.name, "model": self.backend.model_name(),
             "model_id": self.model_id(),
             "messages": [[m.role, m.content] for m in request.messages],
-            "schema": _jsonable(request.schema) if request.schema is not None else None,
+            "schema": jsonfmt.normalised(request.schema) if request.schema is not None else None,
             "options": dataclasses.asdict(request.options),
             "template": self._template(request.template),
         }
@@ -388,7 +377,7 @@ class LLMClient:
         latency = 0.0
         text = ""
         for attempt in range(core.cfg.repair_retries + 1):
-            seed = derive_seed(request.options.seed, request.options.sample_index, attempt)
+            seed = llm_sample_seed(request.options.seed, request.options.sample_index, attempt)
             t0 = time.perf_counter()
             try:
                 gen = core.backend.generate(tuple(messages), request.schema, request.options, seed)
@@ -604,8 +593,8 @@ class DeterministicBackend:
         if self.generate_fn is not None:
             text = self.generate_fn(messages, schema, options, seed)
         else:
-            rng = random.Random(derive_seed(seed, [[m.role, m.content] for m in messages].__repr__()))
-            text = canonical_json(schema_instance(schema, rng)) if schema is not None else "ok"
+            rng = random.Random(llm_sample_seed(seed, [[m.role, m.content] for m in messages].__repr__()))
+            text = jsonfmt.compact(schema_instance(schema, rng)) if schema is not None else "ok"
         tin = sum(len(m.content.split()) + 4 for m in messages)
         return Generation(text=text, tokens_in=tin, tokens_out=max(1, len(text) // 4))
 
@@ -616,7 +605,7 @@ class DeterministicBackend:
         def f(p: str, c: str) -> float:
             if self.score_fn is not None:
                 return float(self.score_fn(p, c))
-            return -1.0 - derive_seed(p, c) / 2**31 * 9.0  # in (-10, -1]
+            return -1.0 - llm_sample_seed(p, c) / 2**31 * 9.0  # in (-10, -1]
 
         raw = [f(prompt, c) for c in continuations]
         calib = [f(calibration_prompt, c) for c in continuations] if calibration_prompt is not None else None

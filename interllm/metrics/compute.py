@@ -48,9 +48,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
+from interllm.core.seeding import bootstrap_seed
 from interllm.errors import UserError
 from interllm.io import atomic_write_text, read_json
-from interllm.planning.domain import Action
 
 MANIPULATION_KINDS = ("pickup", "place")
 PER_OBJECT_FIELDS = ("planner", "scene", "mission", "command_index", "command", "slot", "object_index",
@@ -181,11 +181,6 @@ def _kind(a: Mapping) -> str:
 def _obj(a: Mapping) -> Optional[str]:
     act = a["action"]
     return act.get("object") or act.get("obj")
-
-
-def action_string(a: Mapping) -> str:
-    """``str(Action)`` of an ActionResult record, e.g. ``pickup(apple_1, table_3)``."""
-    return str(Action.from_dict(a["action"]))
 
 
 def assign_slots(actions: list[Mapping], n_slots: int) -> tuple[list[int], list[list[str]]]:
@@ -439,10 +434,10 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         rows_o = [r for r in po if r["planner"] == p]
         d: dict[str, Any] = {"n_missions": len(rows_m), **counts[p]}
         m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_m], B, ci,
-                                            stats.derive_seed(seed, f"mission:m_overall:{p}"))
+                                            bootstrap_seed(seed, f"mission:m_overall:{p}"))
         d.update({"m_overall": m, "m_overall_ci_lo": lo, "m_overall_ci_hi": hi})
         m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_o], B, ci,
-                                            stats.derive_seed(seed, f"object:m_overall:{p}"))
+                                            bootstrap_seed(seed, f"object:m_overall:{p}"))
         d.update({"m_overall_per_object": m, "m_overall_per_object_ci_lo": lo,
                   "m_overall_per_object_ci_hi": hi})
         for k in ("cc", "d", "t_exe"):  # per mission (sums over its objects)

@@ -7,7 +7,7 @@ identical bytes with the same matplotlib/freetype versions.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Optional
 
@@ -136,18 +136,3 @@ def path_similarity_figure(path: str | os.PathLike, eps: float = 1.0) -> tuple[O
     fig.tight_layout()
     note = (f"P° (of 200) with ε = {eps} m: " + ", ".join(f"{n} {v:.1f}" for (n, _, _), v in zip(pairs, vals, strict=True)))
     return _save(fig, path), note
-
-
-def bar_chart(labels: Sequence[str], values: Sequence[float], path: str | os.PathLike, ylabel: str,
-              title: str) -> Path:
-    """A plain bar chart (Table II / M ablation)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(5.0, 3.2))
-    ax.bar(range(len(labels)), [float(v) for v in values], color="tab:gray")
-    ax.set_xticks(range(len(labels)))
-    ax.set_xticklabels(list(labels))
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
-    return _save(fig, path)

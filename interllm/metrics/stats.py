@@ -2,26 +2,21 @@
 semantic-similarity accuracy of manipulation-cost inferences (paper Table II).
 
 Every random draw comes from a ``numpy.random.Generator`` seeded from ``MetricsConfig.seed`` and a
-CRC32 of the group's label (``derive_seed``), so a group's CI does not depend on which other groups
+CRC32 of the group's label (``interllm.core.seeding.bootstrap_seed``), so a group's CI does not depend on which other groups
 are present, and identical inputs give identical outputs.
 """
 
 from __future__ import annotations
 
-import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Optional
 
 import numpy as np
 
-from interllm.planning.domain import Action
+from interllm.core.actions import Action
+from interllm.core.seeding import bootstrap_seed
 
 CLASSES = ("easy", "medium", "hard")
-
-
-def derive_seed(seed: int, label: str) -> int:
-    """A 32-bit seed from the base seed and a label (CRC32; never Python's salted ``hash``)."""
-    return zlib.crc32(f"{int(seed)}:{label}".encode()) & 0xFFFFFFFF
 
 
 def bootstrap_mean_ci(x: Sequence[float], n_boot: int = 2000, ci: float = 0.95, seed: int = 0
@@ -95,7 +90,7 @@ def compare_planners(per_mission: Iterable[Mapping], reference: str = "inter_llm
         keys = sorted(set(by[reference]) & set(by[base]))
         x = [by[reference][k] for k in keys]
         y = [by[base][k] for k in keys]
-        pct, lo, hi = paired_improvement(x, y, n_boot, ci, derive_seed(seed, f"paired:{reference}:{base}"))
+        pct, lo, hi = paired_improvement(x, y, n_boot, ci, bootstrap_seed(seed, f"paired:{reference}:{base}"))
         out[base] = {"pct": pct, "ci_lo": lo, "ci_hi": hi, "n_pairs": len(keys),
                      "ref_mean": float(np.mean(x)) if x else float("nan"),
                      "base_mean": float(np.mean(y)) if y else float("nan")}
@@ -111,7 +106,7 @@ def group_mean_ci(rows: Iterable[Mapping], keys: Sequence[str], value: str, n_bo
         groups.setdefault(tuple(r[k] for k in keys), []).append(float(r[value]))
     out = []
     for g in sorted(groups):
-        m, lo, hi = bootstrap_mean_ci(groups[g], n_boot, ci, derive_seed(seed, f"{value}:{g!r}"))
+        m, lo, hi = bootstrap_mean_ci(groups[g], n_boot, ci, bootstrap_seed(seed, f"{value}:{g!r}"))
         out.append({**dict(zip(keys, g, strict=True)), "mean": m, "ci_lo": lo, "ci_hi": hi, "n": len(groups[g])})
     return out
 

@@ -15,9 +15,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from interllm.planning.domain import Plan, plan_to_list
+from interllm.core.actions import Plan, plan_to_list
+from interllm.core.results import ActionResult
 from interllm.scene.graph import Command
-from interllm.sim.results import ActionResult
 
 
 @dataclass

@@ -10,8 +10,9 @@ from __future__ import annotations
 from typing import Any
 
 from interllm.config import ExperimentConfig
+from interllm.core.actions import Plan, State, plan_from_list, plan_to_list
+from interllm.core.seeding import planning_seed
 from interllm.planning import proposals as P
-from interllm.planning.domain import Plan, State, plan_from_list, plan_to_list
 from interllm.scene.graph import Mission, SceneGraph
 
 
@@ -36,7 +37,7 @@ def generate_initial_candidates(scene: SceneGraph, mission: Mission, client: Any
         else:
             scores = P.score_command(client, scene, cmd, cfg, None, ctx)
             plans = P.propose_by_scores(scores, scene, state, n, M, cfg.llm.temperature,
-                                        P.derive_seed(cfg.llm.seed, "candidates", mission.id, cmd.id))
+                                        planning_seed(cfg.llm.seed, "candidates", mission.id, cmd.id))
         out[cmd.id] = [plan_to_list(p) for p in plans]
     return out
 

@@ -26,14 +26,15 @@ from typing import Any, Optional
 import numpy as np
 
 from interllm.config import ExperimentConfig
+from interllm.core.actions import Action, Plan, State, plan_to_list
+from interllm.core.results import ActionResult
+from interllm.core.seeding import planning_seed
 from interllm.llm.types import LLMRequest, LLMResponse, ScoreRequest, ScoreResponse
 from interllm.planners.base import CommandResult
 from interllm.planning import proposals as P
-from interllm.planning.domain import Action, Plan, State, plan_to_list
 from interllm.planning.feasibility import action_violations, check_plan
 from interllm.planning.memory import KnownCosts
 from interllm.scene.graph import Command, Mission
-from interllm.sim.results import ActionResult
 
 LLM_TOPIC = "/llm/calls"
 
@@ -114,7 +115,7 @@ class PlannerContext:
 
     def seed(self, *parts: Any) -> int:
         """Seed derived from the base seed, planner, mission and ``parts`` (sha256-based)."""
-        return P.derive_seed(self.cfg.llm.seed, self.planner, self.mission.id, *parts)
+        return planning_seed(self.cfg.llm.seed, self.planner, self.mission.id, *parts)
 
     def event(self, topic: str, command: Command, payload: dict) -> None:
         self.recorder.event(topic, float(self.world.clock), {

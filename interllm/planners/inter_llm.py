@@ -17,6 +17,7 @@ Per command:
 
 from __future__ import annotations
 
+from interllm.core.actions import Plan, State, apply_effects, plan_to_list
 from interllm.planners.base import CommandResult
 from interllm.planners.context import PlannerContext, finish, new_result, robot_xy
 from interllm.planning import proposals as P
@@ -28,7 +29,6 @@ from interllm.planning.costs import (
     estimate_navigation,
     plan_total,
 )
-from interllm.planning.domain import Plan, State, plan_to_list
 from interllm.scene.graph import Command
 
 
@@ -69,7 +69,7 @@ class InterLLMPlanner:
                                                cfg.planner.nav_estimate, cfg.sim.base_speed)
                 nav.append(CostEstimate(str(a), "navigate", est, src))
                 prev = a.furniture
-                state = State(a.furniture, world.scene.furniture[a.furniture].room, state.holding)
+                state = apply_effects(a, state, world.scene.furniture_rooms)
                 continue
             known = mem.manipulation_cost(a, state)
             if known is not None:
@@ -86,8 +86,7 @@ class InterLLMPlanner:
                 man.append(CostEstimate(str(a), a.kind, decode_cost(lab), "llm", lab, lab != "unknown"))
             if prev is None:
                 prev = state.at_furniture
-            holding = a.obj if a.kind == "pickup" else None
-            state = State(state.at_furniture, state.at_room, holding)
+            state = apply_effects(a, state, world.scene.furniture_rooms)
         total = plan_total([e.estimate for e in nav], [e.estimate for e in man], [e.valid for e in man])
         return PlanEstimate(total, nav, man)
 

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 from typing import Optional
 
+from interllm.core.actions import Action, Plan, plan_to_list
+from interllm.core.results import ActionResult
 from interllm.planners.base import CommandResult
 from interllm.planners.context import PlannerContext, finish, new_result
 from interllm.planning import proposals as P
-from interllm.planning.domain import Action, Plan, plan_to_list
 from interllm.scene.graph import Command
-from interllm.sim.results import ActionResult
 
 
 class MoMaLLMPlanner:

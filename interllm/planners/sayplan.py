@@ -9,9 +9,9 @@ failure (the failed object's remaining actions are skipped, as for every planner
 
 from __future__ import annotations
 
+from interllm.core.actions import plan_to_list
 from interllm.planners.base import CommandResult
 from interllm.planners.context import PlannerContext, finish, new_result
-from interllm.planning.domain import plan_to_list
 from interllm.scene.graph import Command
 
 

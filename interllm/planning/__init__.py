@@ -1,7 +1,7 @@
 """High-level planning: domain, feasibility checker, path similarity, known costs, cost estimation,
 LLM proposals (and grid search in ``planning.search``).
 
-Names are resolved lazily (PEP 562): ``interllm.sim.results`` imports ``planning.domain``, and an
+Names are resolved lazily (PEP 562): ``interllm.core.results`` imports ``planning.domain``, and an
 eager import of ``planning.memory`` here would be circular.
 """
 

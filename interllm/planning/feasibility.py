@@ -32,7 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
-from interllm.planning.domain import Action, Plan, State
+from interllm.core.actions import Action, Plan, State, apply_effects
 from interllm.scene.graph import SceneGraph
 
 RULES = (
@@ -139,23 +139,11 @@ def action_violations(action: Action, scene: SceneGraph, state: State, index: in
 
 
 def _effects(action: Action, scene: SceneGraph, state: State) -> State:
-    """Apply the effects of ``action`` to ``scene`` (in place) and return the new state."""
-    if action.kind == "navigate":
-        if action.furniture in scene.furniture:
-            room = scene.furniture[action.furniture].room
-        else:
-            room = action.room
-        return State(at_furniture=action.furniture, at_room=room, holding=state.holding)
-    if action.kind == "pickup":
-        if action.obj and action.obj in scene.objects and state.holding is None:
-            return State(state.at_furniture, state.at_room, holding=action.obj)
-        return state
-    # place
-    if action.obj and action.obj == state.holding:
-        if action.furniture in scene.furniture:
-            scene.move_object(action.obj, action.furniture)
-        return State(state.at_furniture, state.at_room, holding=None)
-    return state
+    """The new state after ``action`` (``core.actions.apply_effects``); a place also moves the
+    object onto the furniture in ``scene`` (in place)."""
+    if action.kind == "place" and action.obj and action.obj == state.holding and action.furniture in scene.furniture:
+        scene.move_object(action.obj, action.furniture)
+    return apply_effects(action, state, scene.furniture_rooms, scene.objects)
 
 
 def apply(action: Action, scene: SceneGraph, state: State) -> tuple[SceneGraph, State]:

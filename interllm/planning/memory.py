@@ -15,8 +15,8 @@ from typing import Optional
 
 import numpy as np
 
-from interllm.planning.domain import Action, State
-from interllm.sim.results import ActionResult
+from interllm.core.actions import Action, State
+from interllm.core.results import ActionResult
 
 
 @dataclass

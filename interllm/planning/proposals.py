@@ -33,7 +33,6 @@ Seeds are derived with sha256 of strings (never ``hash()``), so runs are reprodu
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import json
 from collections.abc import Sequence
@@ -43,20 +42,15 @@ from typing import Any, Optional
 import numpy as np
 
 from interllm.config import ExperimentConfig
+from interllm.core.actions import Action, Plan, State, plan_from_list, plan_to_list
+from interllm.core.seeding import planning_seed
 from interllm.llm.types import LLMOptions, LLMRequest, Message, ScoreRequest
 from interllm.planning.costs import COST_LABELS, encode_cost
-from interllm.planning.domain import Action, Plan, State, plan_from_list, plan_to_list
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
 from interllm.scene.graph import Command, SceneGraph
 
 CALIBRATION_COMMAND = "N/A"
-
-
-def derive_seed(*parts: Any) -> int:
-    """A 32-bit seed from string parts (sha256; stable across processes, unlike ``hash()``)."""
-    h = hashlib.sha256("\x1f".join(str(p) for p in parts).encode("utf-8")).digest()
-    return int.from_bytes(h[:4], "little")
 
 
 def _template(name: str):
@@ -475,7 +469,7 @@ def infer_manipulation_cost(client, action: Action, scene: SceneGraph, known: Kn
                     [f" {c}" for c in COST_LABELS], cfg.llm.calibrate, context, "action",
                     CALIBRATION_COMMAND)
     return sample_label(scores, cfg.llm.temperature,
-                        derive_seed(cfg.llm.seed, "cost_inference", *seed_parts, str(action)))
+                        planning_seed(cfg.llm.seed, "cost_inference", *seed_parts, str(action)))
 
 
 def sample_label(scores: Sequence[float], temperature: float, seed: int) -> str:
@@ -490,7 +484,7 @@ def sample_label(scores: Sequence[float], temperature: float, seed: int) -> str:
 
 
 __all__ = [
-    "SemanticScores", "assemble_plan", "derive_seed", "describe_manipulation", "generate_plans",
+    "SemanticScores", "assemble_plan", "describe_manipulation", "generate_plans",
     "infer_manipulation_cost", "known_costs_text", "parse_plan", "plan_schema", "plan_to_list",
     "plan_from_list", "propose_by_scores", "regenerate_plan_llm", "repair_by_scores", "replan_llm",
     "sample_label", "sample_selections", "score_command",

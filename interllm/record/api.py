@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol
 
-from interllm.sim.results import ActionResult
+from interllm.core.results import ActionResult
 
 
 class Recorder(Protocol):

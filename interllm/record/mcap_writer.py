@@ -49,7 +49,6 @@ Determinism: no wall-clock anywhere; identical inputs give byte-identical files.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import struct
@@ -72,9 +71,11 @@ from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
+from interllm.core import jsonfmt
+from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME, yaw_quat_xyzw
+from interllm.core.results import ActionResult, Trajectory
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
-from interllm.sim.results import BASE_FRAME, GRIP_FRAME, WORLD_FRAME, ActionResult, Trajectory
 
 DOOR_HEIGHT = 2.0  # [m] drawn height of a door leaf
 DOOR_LEAF_THICKNESS = 0.04  # [m]
@@ -197,16 +198,12 @@ def _json_default(o: Any) -> Any:
 
 
 def dumps(obj: Any) -> str:
-    return json.dumps(obj, sort_keys=True, default=_json_default, ensure_ascii=False)
+    """The run log's JSON encoding (``jsonfmt.message`` with numpy and dataclass conversion)."""
+    return jsonfmt.message(obj, default=_json_default)
 
 
 def _meta_str(v: Any) -> str:
     return v if isinstance(v, str) else dumps(v)
-
-
-def yaw_quat(yaw: float) -> tuple[float, float, float, float]:
-    """Rotation about z by yaw [rad] as (x, y, z, w)."""
-    return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
 
 
 def _set_color(c: Color, rgba: Sequence[float]) -> None:
@@ -298,7 +295,7 @@ def _scene_update(scene: SceneGraph, robot_visuals: Sequence[Any] = ()) -> Scene
         e.frame_id, e.id, e.frame_locked = WORLD_FRAME, f"{b['kind']}/{b['id']}", True
         _metadata(e, kind=b["kind"], category=b.get("category", b["kind"]))
         c = e.cubes.add()
-        _set_pose(c.pose, b["center"], yaw_quat(b["yaw"]))
+        _set_pose(c.pose, b["center"], yaw_quat_xyzw(b["yaw"]))
         c.size.x, c.size.y, c.size.z = (float(v) for v in b["size"])
         _set_color(c.color, _COLORS[b["kind"]])
     for v in robot_visuals:  # locked to the link frames that /tf moves
@@ -664,7 +661,7 @@ class McapRecorder:
                     tr.timestamp.FromNanoseconds(ns)
                     tr.parent_frame_id, tr.child_frame_id = WORLD_FRAME, BASE_FRAME
                     tr.translation.x, tr.translation.y = b[0], b[1]
-                    _, _, tr.rotation.z, tr.rotation.w = yaw_quat(b[2])
+                    _, _, tr.rotation.z, tr.rotation.w = yaw_quat_xyzw(b[2])
                 if link is not None:
                     for (parent, child), xyz, quat in zip(self.robot.chain, *link, strict=True):
                         lt = msg.transforms.add()

@@ -34,6 +34,7 @@ from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
+from interllm.core.results import ActionResult, Trajectory
 from interllm.errors import MissingInputError, UserError
 from interllm.record.mcap_writer import (
     ACTIONS_TOPIC,
@@ -51,7 +52,6 @@ from interllm.record.mcap_writer import (
 )
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
-from interllm.sim.results import ActionResult, Trajectory
 
 
 class RunLogFormatError(UserError, ValueError):

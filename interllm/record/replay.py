@@ -38,10 +38,10 @@ from pathlib import Path
 
 import numpy as np
 
+from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
 from interllm.errors import MissingInputError, UserError
 from interllm.record.mcap_writer import scene_boxes
 from interllm.record.reader import RunLog, read_run
-from interllm.sim.results import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
 
 TIMELINE = "sim_time"
 ROBOT_HALF_SIZE = (0.25, 0.25, 0.2)  # [m] drawn base footprint

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import copy
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -117,6 +117,25 @@ class SceneObject:
     placement: str = "front"  # "front" | "deep" | "high" | "clutter": how hard it is to reach
 
 
+class _FurnitureRooms(Mapping):
+    """furniture id -> room id over a furniture dict, without copying it."""
+
+    def __init__(self, furniture: dict[str, Furniture]) -> None:
+        self._f = furniture
+
+    def __getitem__(self, key: str) -> str:
+        return self._f[key].room
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._f
+
+    def __iter__(self):
+        return iter(self._f)
+
+    def __len__(self) -> int:
+        return len(self._f)
+
+
 @dataclass
 class SceneGraph:
     """A house: rooms, walls, doors, furniture and objects, with their spatial relations."""
@@ -154,15 +173,6 @@ class SceneGraph:
         return g
 
     # ---- queries -----------------------------------------------------------------------
-    def kind_of(self, node_id: str) -> str | None:
-        if node_id in self.rooms:
-            return "room"
-        if node_id in self.furniture:
-            return "furniture"
-        if node_id in self.objects:
-            return "object"
-        return None
-
     def room_of(self, node_id: str) -> str:
         """Room id of a furniture or an object."""
         if node_id in self.objects:
@@ -175,13 +185,6 @@ class SceneGraph:
     def furniture_in(self, room_id: str) -> list[Furniture]:
         return [f for f in self.furniture.values() if f.room == room_id]
 
-    def room_at(self, x: float, y: float) -> str | None:
-        for r in self.rooms.values():
-            x0, y0, x1, y1 = r.bounds
-            if x0 <= x <= x1 and y0 <= y <= y1:
-                return r.id
-        return None
-
     @property
     def bounds(self) -> tuple[float, float, float, float]:
         b = [r.bounds for r in self.rooms.values()]
@@ -189,6 +192,11 @@ class SceneGraph:
 
     def copy(self) -> SceneGraph:
         return copy.deepcopy(self)
+
+    @property
+    def furniture_rooms(self) -> Mapping[str, str]:
+        """Room id of every furniture id, as a read-only live view (for ``apply_effects``)."""
+        return _FurnitureRooms(self.furniture)
 
     def move_object(self, object_id: str, furniture_id: str, position: Vec3 | None = None) -> None:
         """Put an object on a furniture (used to apply place effects to a copy of the scene)."""

@@ -3,7 +3,7 @@
 Mission 0 is the paper's three commands (breakfast, meeting, reading) when
 ``MissionConfig.include_paper_mission``; the others draw ``commands_per_mission`` distinct commands
 among those the scene supports (target furniture present and enough valid objects), seeded by
-``zlib.crc32`` of (scene id, mission seed, mission index) so the result never depends on the
+``core.seeding.mission_seed`` (CRC32) of (scene id, mission seed, mission index) so the result never depends on the
 process. The robot starts on a free cell of the TRUE grid (hence also of the presumed one) in the
 largest free region, next to a start furniture, facing it.
 """
@@ -11,12 +11,12 @@ largest free region, next to a start furniture, facing it.
 from __future__ import annotations
 
 import math
-import zlib
 from pathlib import Path
 
 import numpy as np
 
 from interllm.config import MissionConfig
+from interllm.core.seeding import mission_seed
 from interllm.errors import UserError
 from interllm.io import read_json, write_json
 from interllm.scene.catalog import Catalog, load_catalog
@@ -29,10 +29,6 @@ MISSIONS_SCHEMA_VERSION = 1
 
 class MissionError(UserError, ValueError):
     """Missions cannot be built for this scene, or a missions file is invalid."""
-
-
-def _rng(*parts) -> np.random.Generator:
-    return np.random.default_rng(zlib.crc32(":".join(str(p) for p in parts).encode("utf-8")))
 
 
 def supported_commands(scene: SceneGraph, n_objects: int, catalog: Catalog | None = None) -> list[str]:
@@ -97,7 +93,7 @@ def generate_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float
 
     out = []
     for i in range(cfg.n_missions):
-        rng = _rng(scene.id, cfg.seed, i)
+        rng = np.random.default_rng(mission_seed(scene.id, cfg.seed, i))
         paper = [c.id for c in cat.paper_commands()]
         if i == 0 and cfg.include_paper_mission:
             missing = [c for c in paper if c not in ok]

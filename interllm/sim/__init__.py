@@ -3,7 +3,7 @@
 ``World`` (world.py) is the stateful wrapper; ``build_world_spec`` (build.py) turns a scene into
 an MjSpec; ``execute_navigate`` / ``execute_pickup`` / ``execute_place`` run one action;
 results are the records of ``results.py``. Heavy modules (mujoco, mink) load on first use, so
-``interllm.sim.results`` stays cheap to import.
+``interllm.core.results`` stays cheap to import.
 """
 
 from __future__ import annotations

@@ -24,6 +24,7 @@ from typing import Optional
 import mujoco
 
 from interllm.config import SimConfig
+from interllm.core.frames import yaw_quat_wxyz
 from interllm.scene.graph import Furniture, SceneGraph, SceneObject
 from interllm.sim.robot import (
     CA_OBJECT,
@@ -32,7 +33,6 @@ from interllm.sim.robot import (
     CT_STATIC,
     add_robot,
     add_robot_assets,
-    yaw_quat,
 )
 
 _BOX = mujoco.mjtGeom.mjGEOM_BOX
@@ -58,7 +58,7 @@ def add_segment_box(body, name: str, a, b, thickness: float, height: float, rgba
     length = math.hypot(bx - ax, by - ay)
     yaw = math.atan2(by - ay, bx - ax)
     _static(body, name, (length / 2 + thickness / 2, thickness / 2, height / 2),
-            ((ax + bx) / 2, (ay + by) / 2, height / 2), yaw_quat(yaw), rgba)
+            ((ax + bx) / 2, (ay + by) / 2, height / 2), yaw_quat_wxyz(yaw), rgba)
 
 
 def add_furniture(body, f: Furniture) -> None:

@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 from interllm.config import SimConfig
-from interllm.sim.results import BASE_FRAME, GRIP_FRAME, wxyz_to_xyzw
+from interllm.core.frames import BASE_FRAME, GRIP_FRAME, wxyz_to_xyzw
 from interllm.sim.robot import ARM_JOINTS, GRIP_SITE, PREFIX, add_robot, add_robot_assets
 
 _GEOM_KIND = {int(mujoco.mjtGeom.mjGEOM_BOX): "box", int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",

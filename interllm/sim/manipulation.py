@@ -29,7 +29,6 @@ on the furniture it was taken from; ``World.state.holding`` is the truth.
 from __future__ import annotations
 
 import math
-import zlib
 from dataclasses import dataclass
 from typing import Optional
 
@@ -37,18 +36,12 @@ import mink
 import mujoco
 import numpy as np
 
-from interllm.planning.domain import Action, State
+from interllm.core.actions import Action, State
+from interllm.core.frames import GRIP_FRAME, WORLD_FRAME, wxyz_to_xyzw, yaw_quat_wxyz
+from interllm.core.results import ActionResult, ManipulationTrial, ObjectEvent, man_cost
+from interllm.core.seeding import pose_sampling_seed
 from interllm.sim.build import build_local_spec
-from interllm.sim.results import (
-    GRIP_FRAME,
-    WORLD_FRAME,
-    ActionResult,
-    ManipulationTrial,
-    ObjectEvent,
-    man_cost,
-    wxyz_to_xyzw,
-)
-from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK, yaw_quat
+from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK
 from interllm.sim.world import footprint_distance
 
 PRE_GRASP_HEIGHT = 0.10  # [m] above the target
@@ -210,7 +203,7 @@ def sample_base_poses(world, furniture_id: str, target_xy, action: Action, n: in
         return []
     dt = np.hypot(pts[:, 0] - target_xy[0], pts[:, 1] - target_xy[1])
     pts = pts[dt <= dt.min() + LOCAL_WINDOW + 1e-9]
-    rng = np.random.default_rng(cfg.seed + zlib.crc32(str(action).encode("utf-8")))
+    rng = np.random.default_rng(pose_sampling_seed(cfg.seed, action))
     idx = rng.choice(len(pts), size=n, replace=len(pts) < n)
     out = []
     for k in idx:
@@ -227,7 +220,7 @@ def _run_trials(world, ik: LocalIK, action: Action, poses, target: np.ndarray, i
     obstacles = set(avoid)
     for bx, by, byaw in poses:
         ik.model.body_pos[ik.base_body] = (bx, by, 0.0)
-        ik.model.body_quat[ik.base_body] = yaw_quat(byaw)
+        ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(byaw)
         rot = _topdown_rotation((bx, by), target[:2])
         pre = target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT])
         s1 = solve_ik(ik, TUCK, pre, rot, cfg, avoid)

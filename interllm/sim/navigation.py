@@ -23,8 +23,8 @@ import math
 
 import numpy as np
 
-from interllm.planning.domain import Action, State
-from interllm.sim.results import ActionResult, nav_cost
+from interllm.core.actions import Action, State
+from interllm.core.results import ActionResult, nav_cost
 
 _EPS = 1e-9
 

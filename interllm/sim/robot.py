@@ -19,12 +19,12 @@ robot bodies have gravity compensation so a dynamic ``mj_step`` keeps them still
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from interllm.config import SimConfig
+from interllm.core.frames import yaw_quat_wxyz
 
 PREFIX = "robot/"
 SHOULDER_HEIGHT = 0.80  # [m] above the floor
@@ -57,22 +57,6 @@ _HINGE = mujoco.mjtJoint.mjJNT_HINGE
 _SLIDE = mujoco.mjtJoint.mjJNT_SLIDE
 
 
-@dataclass(frozen=True)
-class RobotSpec:
-    """Names of the robot's parts in a compiled model."""
-
-    base_joints: tuple[str, ...] = BASE_JOINTS
-    arm_joints: tuple[str, ...] = ARM_JOINTS
-    grip_site: str = GRIP_SITE
-    base_geom: str = BASE_GEOM
-    arm_geoms: tuple[str, ...] = ARM_GEOMS
-
-
-def yaw_quat(yaw: float) -> list[float]:
-    """Quaternion (w, x, y, z) of a rotation by ``yaw`` [rad] about +z."""
-    return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
-
-
 def _robot_geom(body, name, **kw):
     return body.add_geom(name=name, contype=CT_ROBOT, conaffinity=CA_ROBOT, **kw)
 
@@ -95,7 +79,7 @@ def add_robot(parent, sim_cfg: SimConfig | None = None, mobile: bool = True,
         base.add_joint(name=BASE_JOINTS[1], type=_SLIDE, axis=[0, 1, 0], damping=50.0)
         base.add_joint(name=BASE_JOINTS[2], type=_HINGE, axis=[0, 0, 1], damping=50.0)
     else:
-        base = parent.add_body(name="robot/base", pos=[pose[0], pose[1], 0.0], quat=yaw_quat(pose[2]),
+        base = parent.add_body(name="robot/base", pos=[pose[0], pose[1], 0.0], quat=yaw_quat_wxyz(pose[2]),
                                gravcomp=1.0)
     half_h = (BASE_HEIGHT - BASE_CLEARANCE) / 2
     _robot_geom(base, BASE_GEOM, type=_CYL, size=[r, half_h, 0], pos=[0, 0, BASE_CLEARANCE + half_h],

@@ -21,12 +21,12 @@ import numpy as np
 from scipy import ndimage
 
 from interllm.config import SimConfig
-from interllm.planning.domain import Action, State
+from interllm.core.actions import Action, State
+from interllm.core.results import ActionResult, Trajectory
 from interllm.planning.search import GridSearch
 from interllm.scene.graph import Mission, SceneGraph
 from interllm.scene.grid import OccupancyGrid, rasterize
 from interllm.sim.build import build_world_spec
-from interllm.sim.results import ActionResult, Trajectory
 from interllm.sim.robot import ARM_JOINTS, BASE_GEOM, BASE_JOINTS, GRIP_SITE, TUCK
 
 ANCHOR_RINGS = (0.25, 0.5, 1.0)  # [m] beyond the robot radius: how far an anchor may be from a footprint
@@ -184,9 +184,6 @@ class World:
                 kind, sid = self.obstacle_geoms[other]
                 out.append((other, c.pos[i].copy(), kind, sid))
         return out
-
-    def arm_joint_names(self) -> tuple[str, ...]:
-        return ARM_JOINTS
 
     def sample(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
         """(time, base pose [3], arm q [6]) for a trajectory sample."""

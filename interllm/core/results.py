@@ -10,7 +10,7 @@ from typing import Optional
 
 import numpy as np
 
-from interllm.planning.domain import Action
+from interllm.core.actions import Action
 
 
 @dataclass
@@ -38,17 +38,6 @@ class ManipulationTrial:
     ik_error: float = 0.0  # [m] final position error
 
 
-# Frame ids of the run log (/tf, /scene, /objects/events) and of replay.
-WORLD_FRAME = "world"
-BASE_FRAME = "base_link"  # the mobile base; world->base_link is the base pose
-GRIP_FRAME = "grip"  # the gripper site, end of the arm chain; a held object's frame
-
-
-def wxyz_to_xyzw(q) -> tuple[float, float, float, float]:
-    """MuJoCo's (w, x, y, z) quaternion in the (x, y, z, w) order of Foxglove, rerun and the run log."""
-    return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
-
-
 @dataclass(frozen=True)
 class ObjectEvent:
     """An object changing hands during an action, for the logger and replay (not a metric).
@@ -60,7 +49,7 @@ class ObjectEvent:
 
     t: float  # [s] simulated mission time of the grasp / release
     object: str
-    frame: str  # GRIP_FRAME | WORLD_FRAME
+    frame: str  # GRIP_FRAME | WORLD_FRAME (interllm.core.frames)
     position: tuple[float, float, float]
     quaternion: tuple[float, float, float, float]
 

@@ -1,11 +1,14 @@
-"""High-level planning domain (paper §III-B): state, actions and plans.
+"""High-level planning domain (paper §III-B): state, actions, plans and their effects.
 
-The planning module (feasibility checker) adds PDDL-style preconditions and effects on top of
-these records; this file holds only the shared data types.
+``apply_effects`` is the one state-transition rule (PDDL effects) the feasibility checker, the
+simulator and the planners' cost look-ahead all use: ``navigate(f, r)`` -> at(f), at(room of f);
+``pickup(o, f)`` -> holding(o) when the hand is free; ``place(o, f)`` -> hand free when o is
+held. Preconditions are the feasibility checker's business (``planning.feasibility``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Container, Mapping
 from dataclasses import dataclass
 from typing import Optional
 
@@ -69,3 +72,23 @@ class State:
     def describe(self) -> str:
         hand = f"holding({self.holding})" if self.holding else "hand_free"
         return f"at({self.at_furniture}), at({self.at_room}), {hand}"
+
+
+def apply_effects(action: Action, state: State, furniture_room: Mapping[str, str],
+                  objects: Optional[Container[str]] = None) -> State:
+    """The high-level state after ``action`` takes effect from ``state``.
+
+    furniture_room: room of every furniture id (``navigate`` to an unknown furniture keeps the
+    action's own room); objects: the object ids that exist (``None``: any id). A ``pickup`` with
+    the hand busy or of an unknown object, or a ``place`` of an object not held, changes nothing.
+    """
+    if action.kind == "navigate":
+        room = furniture_room[action.furniture] if action.furniture in furniture_room else action.room
+        return State(at_furniture=action.furniture, at_room=room, holding=state.holding)
+    if action.kind == "pickup":
+        if action.obj and (objects is None or action.obj in objects) and state.holding is None:
+            return State(state.at_furniture, state.at_room, holding=action.obj)
+        return state
+    if action.obj and action.obj == state.holding:  # place
+        return State(state.at_furniture, state.at_room, holding=None)
+    return state
