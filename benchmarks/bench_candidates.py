@@ -28,9 +28,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from omegaconf import OmegaConf  # noqa: E402
 
-from interllm import experiment as ex  # noqa: E402
 from interllm.scene import load_missions  # noqa: E402
 from interllm.scene.graph import SceneGraph  # noqa: E402
+from interllm.stages.candidates import run_candidates  # noqa: E402
+from interllm.stages.scenes import run_scenes  # noqa: E402
 from pipeline._hydra import compose  # noqa: E402
 
 
@@ -39,9 +40,9 @@ def main(argv: list[str]) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         cfg.llm.cache_dir = str(out / "cache")
-        ex.run_scenes(cfg, out / "scenes")
+        run_scenes(cfg, out / "scenes")
         t = time.perf_counter()
-        ex.run_candidates(cfg, out / "scenes", out / "candidates")
+        run_candidates(cfg, out / "scenes", out / "candidates")
         took = time.perf_counter() - t
         hit, tot, rnd = collections.Counter(), collections.Counter(), collections.defaultdict(list)
         for sd in sorted(p for p in (out / "scenes").iterdir() if p.is_dir()):

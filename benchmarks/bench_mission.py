@@ -38,7 +38,7 @@ from omegaconf import OmegaConf  # noqa: E402
 from interllm.llm import make_client  # noqa: E402
 from interllm.planners.candidates import generate_initial_candidates  # noqa: E402
 from interllm.planners.runner import run_mission  # noqa: E402
-from interllm.record import McapRecorder, NullRecorder, mcap_writer, replay  # noqa: E402
+from interllm.record import McapRecorder, NullRecorder, batch, replay  # noqa: E402
 from interllm.scene import generate_missions, generate_scene  # noqa: E402
 from interllm.scene.grid import rasterize  # noqa: E402
 from interllm.sim.kinematics import RobotKinematics  # noqa: E402
@@ -67,9 +67,9 @@ def _per_message(self, rows) -> None:
 
 
 def write(path: Path, calls, scene, grids, robot, per_message: bool = False) -> float:
-    fast = mcap_writer._BatchWriter.add_messages
+    fast = batch.BatchWriter.add_messages
     if per_message:
-        mcap_writer._BatchWriter.add_messages = _per_message
+        batch.BatchWriter.add_messages = _per_message
     try:
         t = time.perf_counter()
         with McapRecorder(path, scene, {"bench": "1"}, grids=grids, robot=robot) as r:
@@ -77,7 +77,7 @@ def write(path: Path, calls, scene, grids, robot, per_message: bool = False) -> 
                 getattr(r, name)(*args)
         return time.perf_counter() - t
     finally:
-        mcap_writer._BatchWriter.add_messages = fast
+        batch.BatchWriter.add_messages = fast
 
 
 def main() -> None:

@@ -29,26 +29,30 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from omegaconf import OmegaConf  # noqa: E402
 
-from interllm import experiment as ex  # noqa: E402
+from interllm.stages.aggregate import run_aggregate  # noqa: E402
+from interllm.stages.candidates import run_candidates  # noqa: E402
+from interllm.stages.missions import run_missions  # noqa: E402
+from interllm.stages.report import run_report  # noqa: E402
+from interllm.stages.scenes import run_scenes  # noqa: E402
 from pipeline._hydra import compose  # noqa: E402
 
 
 def run_once(cfg, data: Path) -> dict[str, float]:
     t = {}
     s = time.perf_counter()
-    ex.run_scenes(cfg, data / "scenes")
+    run_scenes(cfg, data / "scenes")
     t["scenes"] = time.perf_counter() - s
     s = time.perf_counter()
-    ex.run_candidates(cfg, data / "scenes", data / "candidates")
+    run_candidates(cfg, data / "scenes", data / "candidates")
     t["candidates"] = time.perf_counter() - s
     s = time.perf_counter()
-    ex.run_missions(cfg, data / "scenes", data / "candidates", data / "runs")
+    run_missions(cfg, data / "scenes", data / "candidates", data / "runs")
     t["missions"] = time.perf_counter() - s
     s = time.perf_counter()
-    ex.run_aggregate(cfg, data / "runs", data / "scenes", data / "metrics")
+    run_aggregate(cfg, data / "runs", data / "scenes", data / "metrics")
     t["aggregate"] = time.perf_counter() - s
     s = time.perf_counter()
-    ex.run_report(cfg, data / "metrics", data / "scenes", data / "runs", data / "report")
+    run_report(cfg, data / "metrics", data / "scenes", data / "runs", data / "report")
     t["report"] = time.perf_counter() - s
     t["total"] = sum(t.values())
     return t

@@ -33,7 +33,7 @@ from interllm.core.actions import Action  # noqa: E402
 from interllm.core.frames import yaw_quat_wxyz  # noqa: E402
 from interllm.scene.generator import generate_scene  # noqa: E402
 from interllm.scene.missions import generate_missions  # noqa: E402
-from interllm.sim import manipulation as man  # noqa: E402
+from interllm.sim import manipulator as man  # noqa: E402
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK  # noqa: E402
 from interllm.sim.world import World  # noqa: E402
 
@@ -46,14 +46,14 @@ def ik_benchmark(world: World, n_targets: int = 40) -> None:
     for oid in fronts:
         o = scene.objects[oid]
         act = Action("pickup", o.furniture, obj=oid)
-        for pose in man.sample_base_poses(world, o.furniture, o.position[:2], act, 3):
+        for pose in man.sample_base_poses(world.belief.presumed, world.scene.furniture[o.furniture], o.position[:2], act, 3, cfg):
             jobs.append((o, pose))
     jobs = jobs[:n_targets]
     # small model
     t = time.perf_counter()
     n_ok = 0
     for o, (bx, by, byaw) in jobs:
-        ik = man.local_ik(world, o.furniture)
+        ik = world.manipulator.local_ik(world.scene, o.furniture)
         ik.model.body_pos[ik.base_body] = (bx, by, 0.0)
         ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(byaw)
         rot = man._topdown_rotation((bx, by), o.position[:2])
@@ -62,7 +62,7 @@ def ik_benchmark(world: World, n_targets: int = 40) -> None:
         n_ok += s.converged
     t_local = time.perf_counter() - t
     # whole-house model: same tasks and limits, every non-arm dof frozen
-    m = world.model
+    m = world.physics.model
     conf = mink.Configuration(m)
     arm_dofs = {int(m.jnt_dofadr[m.joint(j).id]) for j in ARM_JOINTS}
     freeze = mink.DofFreezingTask(m, [d for d in range(m.nv) if d not in arm_dofs])
@@ -73,7 +73,7 @@ def ik_benchmark(world: World, n_targets: int = 40) -> None:
     t = time.perf_counter()
     n_ok_big = 0
     for o, (bx, by, byaw) in jobs[:n_big]:
-        q = world.data.qpos.copy()
+        q = world.physics.data.qpos.copy()
         q[base_qadr] = (bx, by, byaw)
         q[arm_qadr] = TUCK
         conf.update(q)
@@ -118,7 +118,7 @@ def nav_benchmark(world: World, mission) -> None:
     wall = time.perf_counter() - t
     print(f"navigation: 12 navigate actions, {dist:.1f} m, {cols} collisions, {sim:.1f} s simulated in "
           f"{wall:.2f} s wall -> {sim / wall:.0f}x faster than simulated time ({steps} contact checks)")
-    m, d = world.model, world.data
+    m, d = world.physics.model, world.physics.data
     n = 2000
     t = time.perf_counter()
     for _ in range(n):
@@ -177,7 +177,7 @@ def main() -> None:
     t_world = time.perf_counter() - t
     print(f"scene {scene.id}: {len(scene.rooms)} rooms, {len(scene.furniture)} furniture, {len(scene.objects)} "
           f"objects, {len(scene.doors)} doors; generate {t_gen:.2f} s, World() {t_world:.2f} s "
-          f"(nq={world.model.nq}, ngeom={world.model.ngeom})")
+          f"(nq={world.physics.model.nq}, ngeom={world.physics.model.ngeom})")
     world.reset(missions[0])
     ik_benchmark(world)
     nav_benchmark(world, missions[0])

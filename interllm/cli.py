@@ -20,8 +20,8 @@ from pathlib import Path
 
 
 def _scene_generate(args) -> int:
-    from interllm.scene import generate_scene, render_topdown
-    from interllm.scene.catalog import CatalogError, scene_config
+    from interllm.scene import generate_scene, render_topdown  # lazy: a command loads only its own code
+    from interllm.scene.catalog import CatalogError, scene_config  # lazy: a command loads only its own code
 
     try:
         cfg = scene_config(args.size, seed=args.seed)
@@ -31,7 +31,7 @@ def _scene_generate(args) -> int:
     scene = generate_scene(cfg, 0)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    from interllm.io import atomic_write_text
+    from interllm.io import atomic_write_text  # lazy: a command loads only its own code
 
     atomic_write_text(out / "scene.json", scene.to_json())
     render_topdown(scene, out / "topdown.png")
@@ -41,8 +41,8 @@ def _scene_generate(args) -> int:
 
 
 def _scene_validate(args) -> int:
-    from interllm.scene import load_scene_file
-    from interllm.scene.validate import SceneValidationError
+    from interllm.scene import load_scene_file  # lazy: a command loads only its own code
+    from interllm.scene.validate import SceneValidationError  # lazy: a command loads only its own code
 
     try:
         scene = load_scene_file(args.file)
@@ -55,9 +55,12 @@ def _scene_validate(args) -> int:
 
 
 def _scene_import(args) -> int:
-    from interllm.io import atomic_write_text
-    from interllm.scene.importer import import_procthor
-    from interllm.scene.validate import SceneValidationError, validate_scene
+    from interllm.io import atomic_write_text  # lazy: a command loads only its own code
+    from interllm.scene.importer import import_procthor  # lazy: a command loads only its own code
+    from interllm.scene.validate import (  # lazy: a command loads only its own code
+        SceneValidationError,
+        validate_scene,
+    )
 
     try:
         scene = import_procthor(args.file)
@@ -72,10 +75,13 @@ def _scene_import(args) -> int:
 
 
 def _report(args) -> int:
-    import yaml
+    import yaml  # lazy: a command loads only its own code
 
-    from interllm.config import from_dict
-    from interllm.experiment import find_sweep_results, run_report
+    from interllm.config import from_dict  # lazy: a command loads only its own code
+    from interllm.stages.report import (  # lazy: a command loads only its own code
+        find_sweep_results,
+        run_report,
+    )
 
     data = Path(args.data)
     params = Path(args.params)
@@ -110,8 +116,11 @@ def _cache_stats(args) -> int:
 
 def _results_diff(args) -> int:
     """Compare metrics.json (and the environment it was made in) with a git revision's."""
-    from interllm.metrics.compare import committed_file, compare_metrics
-    from interllm.numerics import describe_environment_change
+    from interllm.metrics.compare import (  # lazy: a command loads only its own code
+        committed_file,
+        compare_metrics,
+    )
+    from interllm.numerics import describe_environment_change  # lazy: a command loads only its own code
 
     root = Path(args.repo).resolve()
     rel = Path(args.file)
@@ -143,7 +152,7 @@ def _results_diff(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command; a user-fixable error is one line on stderr and exit status 2."""
-    from interllm.errors import UserError
+    from interllm.errors import UserError  # lazy: a command loads only its own code
 
     try:
         return _main(argv)
@@ -155,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "replay":
-        from interllm.record.replay import replay_main
+        from interllm.record.replay import replay_main  # lazy: a command loads only its own code
 
         return replay_main(argv[1:])
     ap = argparse.ArgumentParser(prog="interllm", description=__doc__,
@@ -192,7 +201,7 @@ def _main(argv: list[str] | None = None) -> int:
         return _results_diff(args)
     if args.cmd == "scene":
         if args.scmd == "schema":
-            from interllm.scene.schema import scene_json_schema
+            from interllm.scene.schema import scene_json_schema  # lazy: a command loads only its own code
 
             print(json.dumps(scene_json_schema(), indent=2))
             return 0

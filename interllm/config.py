@@ -11,6 +11,8 @@ Units are in the field comments: metres [m], seconds [s], radians [rad].
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -269,8 +271,6 @@ def from_dict(d: dict, source: str = "") -> ExperimentConfig:
     Checks every value's type against the dataclass annotations and rejects unknown keys (also
     those added with Hydra's ``+key=value``), naming the key, ``source`` and the valid choices.
     """
-    import dataclasses
-
     def build(cls, data, prefix):
         if not isinstance(data, dict):
             raise ConfigError(f"config key '{prefix[:-1]}'{f' (in {source})' if source else ''} must be a "
@@ -278,8 +278,6 @@ def from_dict(d: dict, source: str = "") -> ExperimentConfig:
         fields = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - set(fields), key=str)
         if unknown:
-            import difflib
-
             close = difflib.get_close_matches(str(unknown[0]), list(fields), n=1)
             raise ConfigError(f"config key '{prefix}{unknown[0]}'{f' (in {source})' if source else ''} is "
                               f"unknown{f' (did you mean {prefix}{close[0]!s}?)' if close else ''}; valid "
@@ -299,6 +297,4 @@ def from_dict(d: dict, source: str = "") -> ExperimentConfig:
 
 
 def to_dict(cfg: ExperimentConfig) -> dict:
-    import dataclasses
-
     return dataclasses.asdict(cfg)

@@ -185,9 +185,9 @@ def _numpy_simd() -> dict:
     if np_mod is None:
         return {"loaded": False}
     try:
-        from numpy._core import _multiarray_umath as mu  # numpy >= 2
+        from numpy._core import _multiarray_umath as mu  # lazy: numpy loads after the pin; numpy >= 2
     except ImportError:  # numpy 1.x
-        from numpy.core import _multiarray_umath as mu  # type: ignore[no-redef]
+        from numpy.core import _multiarray_umath as mu  # type: ignore[no-redef]  # lazy: numpy 1.x
     feats = mu.__cpu_features__
     return {"version": np_mod.__version__, "baseline": list(mu.__cpu_baseline__),
             "dispatch_enabled": [t for t in mu.__cpu_dispatch__ if feats.get(t)],
@@ -197,7 +197,7 @@ def _numpy_simd() -> dict:
 def effective() -> dict:
     """The numerical environment in effect in this process: pin policy, BLAS kernel and threads of
     every loaded OpenBLAS, numpy's SIMD targets, the CPU. Loads numpy if it is not loaded yet."""
-    import numpy  # noqa: F401  (the libraries to describe)
+    import numpy  # noqa: F401  # lazy: numpy loads after the pin (the libraries to describe)
 
     p = pin()
     blas = [_blas_info(path) for path in _loaded_openblas()]

@@ -16,7 +16,13 @@ def progress(items: Iterable[T], description: str, total: int | None = None) -> 
     if not show or os.environ.get("INTERLLM_PROGRESS") == "0":
         yield from items
         return
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import (  # lazy: only when a terminal shows the bars
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+    )
 
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TimeElapsedColumn(), transient=False) as bar:

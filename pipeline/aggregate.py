@@ -1,6 +1,6 @@
 """Stage aggregate: per-object/command/mission metrics, CIs, paired comparisons (DVC metrics+plots)."""
 
-from interllm.experiment import run_aggregate
+from interllm.stages.aggregate import run_aggregate
 from pipeline._common import stage_main
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Stage candidates: the M initial plan candidates per command from the cached local LLM."""
 
-from interllm.experiment import run_candidates
+from interllm.stages.candidates import run_candidates
 from pipeline._common import stage_main
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Stage missions: every planner on every mission in MuJoCo, logged to MCAP."""
 
-from interllm.experiment import run_missions
+from interllm.stages.missions import run_missions
 from pipeline._common import stage_main
 
 if __name__ == "__main__":

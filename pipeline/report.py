@@ -1,6 +1,6 @@
 """Stage report: the paper's tables and figures from our runs (Markdown + self-contained HTML)."""
 
-from interllm.experiment import run_report
+from interllm.stages.report import run_report
 from pipeline._common import stage_main
 
 if __name__ == "__main__":

@@ -20,6 +20,8 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from interllm.errors import UserError
+from interllm.stages.pipeline import run_all
+from interllm.stages.workers import usable_cores
 from pipeline._common import ROOT, setup_logging
 from pipeline._hydra import CONF_DIR, register, to_config
 
@@ -27,8 +29,6 @@ register()
 
 
 def run(cfg: DictConfig) -> dict:
-    from interllm.experiment import run_all
-
     typed = to_config(cfg)  # validates types, ranges and unknown keys (ConfigError names the key)
     setup_logging(typed.verbose)
     cache = Path(typed.llm.cache_dir)
@@ -37,8 +37,6 @@ def run(cfg: DictConfig) -> dict:
     hc = HydraConfig.get()
     launcher = str(OmegaConf.select(hc, "launcher._target_", default="") or "")
     if "joblib" in launcher.lower():  # the launcher already runs jobs in parallel
-        from interllm.experiment import usable_cores
-
         n_jobs = int(OmegaConf.select(hc, "launcher.n_jobs", default=1) or 1)
         if n_jobs < 0:  # joblib's convention: -1 all cores, -2 all but one, ...
             n_jobs = max(1, usable_cores() + 1 + n_jobs)

@@ -1,7 +1,7 @@
 """Stage scenes: scene graphs, occupancy grids, MuJoCo worlds, missions and pictures."""
 
-from interllm.experiment import run_scenes
-from interllm.llm.client import preflight
+from interllm.llm.backend import preflight
+from interllm.stages.scenes import run_scenes
 from pipeline._common import stage_main
 
 

@@ -22,7 +22,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any, Optional
 
 from interllm.core.seeding import llm_sample_seed
-from interllm.llm.client import schema_instance
+from interllm.llm.testing import schema_instance
 from interllm.llm.types import LLMOptions, Message
 
 FIXED_TIME = "2024-01-01T00:00:00Z"

@@ -15,7 +15,6 @@ import pytest
 from interllm.config import LLMConfig
 from interllm.llm import (
     CacheMissError,
-    DeterministicBackend,
     LLMOptions,
     LLMRequest,
     Message,
@@ -24,6 +23,7 @@ from interllm.llm import (
     make_client,
 )
 from interllm.llm import prompts as prompts_mod
+from interllm.llm.testing import DeterministicBackend
 
 REPO = Path(__file__).resolve().parents[1]
 SCHEMA = {"type": "object", "properties": {"a": {"type": "integer", "minimum": 0, "maximum": 9}},
@@ -35,7 +35,8 @@ BASE = LLMRequest(purpose="candidates", messages=(Message("system", "s"), Messag
 KEY_SCRIPT = """
 import sys
 from interllm.config import LLMConfig
-from interllm.llm import make_client, DeterministicBackend, LLMRequest, LLMOptions, Message
+from interllm.llm import LLMOptions, LLMRequest, Message, make_client
+from interllm.llm.testing import DeterministicBackend
 schema = {"type": "object", "properties": {"a": {"type": "integer", "minimum": 0, "maximum": 9}},
           "required": ["a"]}
 req = LLMRequest(purpose="candidates", messages=(Message("system", "s"), Message("user", "u")),
@@ -171,7 +172,8 @@ def test_corrupt_entry_is_a_reported_miss_then_overwritten(tmp_path, caplog, dam
 WRITER = """
 import sys
 from interllm.config import LLMConfig
-from interllm.llm import make_client, DeterministicBackend, LLMRequest, LLMOptions, Message
+from interllm.llm import LLMOptions, LLMRequest, Message, make_client
+from interllm.llm.testing import DeterministicBackend
 c = make_client(LLMConfig(cache_dir=sys.argv[1]), backend=DeterministicBackend())
 for i in range(int(sys.argv[2]), int(sys.argv[3])):
     c.complete(LLMRequest(purpose="w", messages=(Message("user", f"q{i}"),),

@@ -15,7 +15,6 @@ import pytest
 from interllm.config import LLMConfig
 from interllm.core.seeding import llm_sample_seed
 from interllm.llm import (
-    DeterministicBackend,
     LLMOutputError,
     LLMRequest,
     Message,
@@ -23,9 +22,9 @@ from interllm.llm import (
     TemplateError,
     load_template,
     make_client,
-    schema_instance,
 )
 from interllm.llm.calllog import CallLog
+from interllm.llm.testing import DeterministicBackend, schema_instance
 
 REPO = Path(__file__).resolve().parents[1]
 SCHEMA = {"type": "object", "properties": {"objects": {"type": "array", "items": {"enum": ["cup", "book"]},

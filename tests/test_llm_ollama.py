@@ -16,8 +16,8 @@ from ollama_fixture import FakeOllama, free_port  # noqa: E402
 from interllm.config import LLMConfig  # noqa: E402
 from interllm.core.seeding import llm_sample_seed  # noqa: E402
 from interllm.llm import LLMRequest, Message, ScoreRequest, make_client  # noqa: E402
-from interllm.llm.client import check_answer  # noqa: E402
 from interllm.llm.ollama_backend import OllamaBackend, OllamaUnavailable  # noqa: E402
+from interllm.llm.schema import check_answer  # noqa: E402
 
 SCHEMA = {"type": "object", "properties": {
     "objects": {"type": "array", "items": {"type": "string", "enum": ["cup", "book", "laptop"]},

@@ -8,7 +8,16 @@ import csv
 import pytest
 
 from interllm.config import ExperimentConfig
-from interllm.core.results import man_cost, nav_cost
+from interllm.core.actions import Action
+from interllm.core.records import (
+    CommandRecord,
+    CommandSummary,
+    CostInference,
+    GoalRecord,
+    MissionRecord,
+    RecordError,
+)
+from interllm.core.results import ActionResult, man_cost, nav_cost
 from interllm.metrics.compute import (
     Gammas,
     MetricsInputError,
@@ -17,7 +26,6 @@ from interllm.metrics.compute import (
     m_overall,
     mission_rows,
     read_csv,
-    validate_record,
 )
 
 SCENE = {"category": {"apple_1": "apple", "bread_1": "bread", "laptop_1": "laptop", "mug_1": "mug",
@@ -27,43 +35,43 @@ SCENE = {"category": {"apple_1": "apple", "bread_1": "bread", "laptop_1": "lapto
 
 
 def nav(furn, room, cc, d, t):
-    return {"action": {"action": "navigate", "furniture": furn, "room": room}, "kind": "navigate",
-            "success": True, "cost": nav_cost(cc, t, d, 10.0), "time": t, "collisions": cc, "distance": d,
-            "success_rate": 1.0}
+    return ActionResult(Action("navigate", furn, room=room), True, nav_cost(cc, t, d, 10.0), t, collisions=cc,
+                        distance=d)
 
 
 def man(kind, obj, furn, sr, t, ok=True):
-    return {"action": {"action": kind, "object": obj, "furniture": furn}, "kind": kind, "success": ok,
-            "cost": man_cost(sr, t, 100.0), "time": t, "collisions": 0, "distance": 0.0, "success_rate": sr}
+    return ActionResult(Action(kind, furn, obj=obj), ok, man_cost(sr, t, 100.0), t, success_rate=sr)
 
 
-def record():
-    c1 = {"command_id": "breakfast", "text": "Set up breakfast on the dining table.",
-          "goal": {"categories": ["apple", "bread"], "target_furniture": ["dining_table"], "n_objects": 2},
-          "summary": {"llm_calls": 4, "llm_tokens_in": 1000, "llm_tokens_out": 200, "cost_inferences": [
-              {"action": "pickup(apple_1, counter_1)", "predicted": "hard", "estimate": 20.0},
-              {"action": "place(laptop_1, bed_desk)", "predicted": "easy", "estimate": 5.0},
-              {"action": "pickup(book_1, shelf_2)", "predicted": "easy", "estimate": 5.0},
-              {"action": "pickup(mug_1, shelf_1)", "predicted": "unknown", "estimate": 0.0}]},
-          "actions": [nav("counter_1", "kitchen", 1, 5.0, 12.0),
-                      man("pickup", "apple_1", "counter_1", 0.5, 4.0),
-                      nav("dining_table", "dining", 0, 3.0, 6.0),
-                      man("place", "apple_1", "dining_table", 1.0, 2.0),
-                      nav("shelf_1", "living", 0, 4.0, 8.0),
-                      man("pickup", "mug_1", "shelf_1", 0.0, 10.0, ok=False)],  # failed pickup
-          "final_locations": {"apple_1": "dining_table", "mug_1": "shelf_1"}}
-    c2 = {"command_id": "meeting", "text": "Set up my online meeting in the bedroom.",
-          "goal": {"categories": ["laptop"], "target_furniture": ["bed_desk"], "n_objects": 2},
-          "summary": {"llm_calls": 2, "llm_tokens_in": 500, "llm_tokens_out": 50, "cost_inferences": [
-              {"action": "pickup(apple_1, counter_1)", "predicted": "easy", "estimate": 5.0}]},
-          "actions": [nav("desk_1", "office", 0, 2.0, 5.0),
-                      man("pickup", "laptop_1", "desk_1", 1.0, 3.0),
-                      nav("bed_desk", "bedroom", 2, 6.0, 20.0),  # two collisions
-                      man("place", "laptop_1", "bed_desk", 0.8, 4.0),
-                      nav("kitchen_table", "kitchen", 0, 1.0, 2.0)],  # trailing: previous object
-          "final_locations": {"laptop_1": "bed_desk"}}
-    return {"planner": "inter_llm", "scene_id": "s0", "mission_id": "m000", "commands": [c1, c2],
-            "sim_time": 76.0}
+def summary(cid, calls, tin, tout, inferences):
+    return CommandSummary(cid, llm_calls=calls, llm_tokens_in=tin, llm_tokens_out=tout,
+                          cost_inferences=[CostInference(*i) for i in inferences])
+
+
+def record() -> MissionRecord:
+    c1 = CommandRecord(
+        "breakfast", "Set up breakfast on the dining table.", GoalRecord(("apple", "bread"), ("dining_table",), 2),
+        summary("breakfast", 4, 1000, 200, [("pickup(apple_1, counter_1)", "hard", 20.0),
+                                            ("place(laptop_1, bed_desk)", "easy", 5.0),
+                                            ("pickup(book_1, shelf_2)", "easy", 5.0),
+                                            ("pickup(mug_1, shelf_1)", "unknown", 0.0)]),
+        [nav("counter_1", "kitchen", 1, 5.0, 12.0),
+         man("pickup", "apple_1", "counter_1", 0.5, 4.0),
+         nav("dining_table", "dining", 0, 3.0, 6.0),
+         man("place", "apple_1", "dining_table", 1.0, 2.0),
+         nav("shelf_1", "living", 0, 4.0, 8.0),
+         man("pickup", "mug_1", "shelf_1", 0.0, 10.0, ok=False)],  # failed pickup
+        {"apple_1": "dining_table", "mug_1": "shelf_1"})
+    c2 = CommandRecord(
+        "meeting", "Set up my online meeting in the bedroom.", GoalRecord(("laptop",), ("bed_desk",), 2),
+        summary("meeting", 2, 500, 50, [("pickup(apple_1, counter_1)", "easy", 5.0)]),
+        [nav("desk_1", "office", 0, 2.0, 5.0),
+         man("pickup", "laptop_1", "desk_1", 1.0, 3.0),
+         nav("bed_desk", "bedroom", 2, 6.0, 20.0),  # two collisions
+         man("place", "laptop_1", "bed_desk", 0.8, 4.0),
+         nav("kitchen_table", "kitchen", 0, 1.0, 2.0)],  # trailing: previous object
+        {"laptop_1": "bed_desk"})
+    return MissionRecord("inter_llm", "s0", "m000", [c1, c2], sim_time=76.0)
 
 
 def test_per_object_by_hand():
@@ -106,14 +114,14 @@ def test_gammas_enter_linearly():
 
 def test_fulfilment_judged_from_locations_not_plan():
     rec = record()
-    rec["commands"][0]["final_locations"]["apple_1"] = "held"  # never put down
+    rec.commands[0].final_locations["apple_1"] = "held"  # never put down
     objs, _, _ = mission_rows(rec, SCENE, Gammas())
     assert objs[0]["sr_obj"] == 0.0
     # without final_locations the last successful place decides
     rec = record()
-    rec["commands"][1]["final_locations"] = {}
+    rec.commands[1].final_locations = {}
     assert mission_rows(rec, SCENE, Gammas())[0][2]["sr_obj"] == 1.0
-    rec["commands"][1]["actions"][3]["success"] = False
+    rec.commands[1].actions[3].success = False
     assert mission_rows(rec, SCENE, Gammas())[0][2]["sr_obj"] == 0.0
 
 
@@ -130,19 +138,25 @@ def test_assign_slots_table(kinds, n, expect_slots, expect_objs):
     acts = []
     for k in kinds:
         if k == "N":
-            acts.append({"action": {"action": "navigate", "furniture": "f", "room": "r"}, "kind": "navigate"})
+            acts.append(nav("f", "r", 0, 0.0, 0.0))
         else:
-            kind = "pickup" if k[0] == "p" else "place"
-            acts.append({"action": {"action": kind, "object": k[1], "furniture": "f"}, "kind": kind})
+            acts.append(man("pickup" if k[0] == "p" else "place", k[1], "f", 1.0, 0.0))
     slots, objs = assign_slots(acts, n)
     assert slots == expect_slots and objs == expect_objs
 
 
 def test_bad_record_names_the_key():
-    rec = record()
+    rec = record().to_dict()
     del rec["commands"][1]["goal"]["n_objects"]
-    with pytest.raises(MetricsInputError, match=r"commands\[1\]\.goal: missing key 'n_objects'"):
-        validate_record(rec)
+    with pytest.raises(RecordError, match=r"commands\[1\]\.goal: missing key 'n_objects'"):
+        MissionRecord.from_dict(rec, "m000.json")
+    with pytest.raises(RecordError, match=r"schema_version 0, this code reads 1; rerun the missions stage"):
+        MissionRecord.from_dict({**record().to_dict(), "schema_version": 0}, "m000.json")
+
+
+def test_records_round_trip():
+    rec = record()
+    assert MissionRecord.from_dict(rec.to_dict()).to_dict() == rec.to_dict()
 
 
 def test_aggregate_writes_tables(tmp_path):
@@ -152,11 +166,11 @@ def test_aggregate_writes_tables(tmp_path):
                {"id": "s0", "objects": [{"id": o, "category": c, "furniture": SCENE["furniture"][o]}
                                         for o, c in SCENE["category"].items()]})
     rec = record()
-    write_json(tmp_path / "runs" / "inter_llm" / "s0" / "m000.json", rec)
+    write_json(tmp_path / "runs" / "inter_llm" / "s0" / "m000.json", rec.to_dict())
     base = copy.deepcopy(rec)
-    base["planner"] = "sayplan"
-    base["commands"][1]["actions"][2]["collisions"] = 5  # +3 collisions -> +30 on obj 3
-    write_json(tmp_path / "runs" / "sayplan" / "s0" / "m000.json", base)
+    base.planner = "sayplan"
+    base.commands[1].actions[2].collisions = 5  # +3 collisions -> +30 on obj 3
+    write_json(tmp_path / "runs" / "sayplan" / "s0" / "m000.json", base.to_dict())
     cfg = ExperimentConfig()
     out = aggregate(tmp_path / "runs", tmp_path / "scenes", cfg, tmp_path / "metrics")
     assert out["planners"]["inter_llm"]["m_overall"] == pytest.approx(562)
@@ -182,6 +196,6 @@ def test_aggregate_errors_name_the_fix(tmp_path):
     with pytest.raises(MetricsInputError, match="missions"):
         aggregate(tmp_path / "nope", tmp_path, ExperimentConfig(), tmp_path / "m")
     from interllm.io import write_json
-    write_json(tmp_path / "runs" / "inter_llm" / "s9" / "m000.json", {**record(), "scene_id": "s9"})
+    write_json(tmp_path / "runs" / "inter_llm" / "s9" / "m000.json", {**record().to_dict(), "scene_id": "s9"})
     with pytest.raises(MetricsInputError, match="scene.json"):
         aggregate(tmp_path / "runs", tmp_path / "scenes", ExperimentConfig(), tmp_path / "m")

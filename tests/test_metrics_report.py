@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from interllm.config import ExperimentConfig, from_dict
-from interllm.core.results import man_cost, nav_cost
+from interllm.core.actions import Action
+from interllm.core.records import CommandRecord, CommandSummary, CostInference, GoalRecord, MissionRecord
+from interllm.core.results import ActionResult, man_cost, nav_cost
 from interllm.io import write_json
 from interllm.metrics.compute import aggregate, read_csv
 
@@ -48,7 +50,26 @@ def _record(planner, sid, mid, scale, rng):
                      "summary": {"llm_calls": 3, "llm_tokens_in": 900, "llm_tokens_out": 120,
                                  "cost_inferences": infs},
                      "actions": actions, "final_locations": final})
-    return {"planner": planner, "scene_id": sid, "mission_id": mid, "commands": cmds, "sim_time": 0.0}
+    return _typed({"planner": planner, "scene_id": sid, "mission_id": mid, "commands": cmds, "sim_time": 0.0})
+
+
+def _typed(d: dict) -> dict:
+    """The compact record above as the missions stage writes it (interllm.core.records)."""
+    cmds = []
+    for c in d["commands"]:
+        acts = [ActionResult(Action.from_dict(a["action"]), a["success"], a["cost"], a["time"],
+                             collisions=a["collisions"], distance=a["distance"], success_rate=a["success_rate"])
+                for a in c["actions"]]
+        s = c["summary"]
+        summary = CommandSummary(c["command_id"], llm_calls=s["llm_calls"], llm_tokens_in=s["llm_tokens_in"],
+                                 llm_tokens_out=s["llm_tokens_out"],
+                                 cost_inferences=[CostInference(i["action"], i["predicted"], i["estimate"])
+                                                  for i in s["cost_inferences"]])
+        g = c["goal"]
+        cmds.append(CommandRecord(c["command_id"], c["text"], GoalRecord(tuple(g["categories"]),
+                                                                         tuple(g["target_furniture"]), g["n_objects"]),
+                                  summary, acts, c["final_locations"]))
+    return MissionRecord(d["planner"], d["scene_id"], d["mission_id"], cmds, d["sim_time"]).to_dict()
 
 
 def str_a(a):

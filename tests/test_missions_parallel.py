@@ -9,7 +9,9 @@ import pytest
 from mcap.reader import make_reader
 
 from interllm.config import from_dict
-from interllm.experiment import run_candidates, run_missions, run_scenes
+from interllm.stages.candidates import run_candidates
+from interllm.stages.missions import run_missions
+from interllm.stages.scenes import run_scenes
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -71,7 +73,7 @@ def test_a_failing_run_names_the_job_and_keeps_the_call_log(inputs, monkeypatch,
         monkeypatch.setattr(cfg, "jobs", jobs)
         out = tmp_path / f"runs{jobs}"
         with pytest.raises(RuntimeError, match=r"planner '(inter_llm|sayplan|moma_llm)' on scene 'paper_s0000' "
-                                               r"mission 'm001' failed: KeyError: .*rerun the candidates stage"):
+                                               r"mission 'm001' failed: StageError: .*has no candidates for mission .*rerun the candidates stage"):
             run_missions(cfg, root / "scenes", root / "candidates", out)
         assert (out / "llm_calls.jsonl").is_file()  # merged even after the failure
         assert not list(out.glob(".llm_calls.worker*"))

@@ -35,7 +35,7 @@ def test_multirun_m_ablation_writes_one_pipeline_per_job_and_the_report_gathers_
         cands = json.loads(next((job / "data" / "candidates").glob("*.json")).read_text())
         assert all(len(c) <= m for mission in cands.values() for c in mission.values())
 
-    from interllm.experiment import find_sweep_results
+    from interllm.stages.report import find_sweep_results
 
     temps, ms = find_sweep_results(sweep)
     assert temps == [] and [label for label, _ in ms] == ["M=1", "M=2"]

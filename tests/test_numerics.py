@@ -12,7 +12,7 @@ import pytest
 
 from interllm import numerics
 from interllm.metrics.compare import compare_metrics, conclusions
-from interllm.provenance import for_run_log
+from interllm.stages.provenance import for_run_log
 
 AVX2 = {"avx", "avx2", "fma", "sse4_2"}
 AVX512 = AVX2 | {"avx512f", "avx512bw"}

@@ -3,6 +3,7 @@ navigation, and deterministic fake LLM clients (the LLM is not what these tests 
 
 from __future__ import annotations
 
+import copy
 import re
 
 import numpy as np
@@ -123,7 +124,26 @@ def _request_words(prompt: str) -> set[str]:
     return set()
 
 
-class FakeScoreClient:
+class _Views:
+    """The client protocol's views: labels are dropped, observers are called after every answer."""
+
+    observers: tuple = ()
+
+    def with_context(self, **labels):
+        return self
+
+    def with_observer(self, observer):
+        view = copy.copy(self)
+        view.observers = self.observers + (observer,)
+        return view
+
+    def _answered(self, req, resp):
+        for obs in self.observers:
+            obs(req, resp)
+        return resp
+
+
+class FakeScoreClient(_Views):
     """score(): number of continuation words found in the prompt's Request/Action line."""
 
     def __init__(self):
@@ -142,14 +162,14 @@ class FakeScoreClient:
             sc = [r - self._raw(req.calibration_prompt, c) for r, c in zip(raw, req.continuations, strict=True)]
         else:
             sc = list(raw)
-        return ScoreResponse(scores=sc, raw=raw, tokens_in=len(req.prompt) // 4, latency=0.0, cached=False,
-                             key="k")
+        return self._answered(req, ScoreResponse(scores=sc, raw=raw, tokens_in=len(req.prompt) // 4, latency=0.0,
+                                                 cached=False, key="k"))
 
     def complete(self, req):
         raise AssertionError("FakeScoreClient does not generate")
 
 
-class ScriptedClient:
+class ScriptedClient(_Views):
     """complete(): always answers ``answer`` (parsed JSON); records the requests."""
 
     def __init__(self, answer):
@@ -158,8 +178,8 @@ class ScriptedClient:
 
     def complete(self, req):
         self.requests.append(req)
-        return LLMResponse(text="", parsed=self.answer, tokens_in=100, tokens_out=20, latency=0.0,
-                           cached=False, key="k")
+        return self._answered(req, LLMResponse(text="", parsed=self.answer, tokens_in=100, tokens_out=20,
+                                               latency=0.0, cached=False, key="k"))
 
     def score(self, req):
         raise AssertionError("ScriptedClient does not score")

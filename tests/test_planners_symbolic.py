@@ -5,9 +5,9 @@ import json
 import pytest
 from test_planners_fakes import FakeScoreClient, ScriptedClient, SymbolicWorld, tiny_mission, tiny_scene
 
-from interllm.config import ExperimentConfig
+from interllm.config import ConfigError, ExperimentConfig
 from interllm.core.actions import Action, plan_to_list
-from interllm.planners import names
+from interllm.planners import PLANNERS
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
 
@@ -40,12 +40,12 @@ def run(name, cfg=None, hard=(), blocked=(), client=None, cands=None, recorder=N
     client = client or FakeScoreClient()
     cands = cands if cands is not None else generate_initial_candidates(scene, mission, client, cfg)
     world = SymbolicWorld(scene, cfg.sim, hard, blocked)
-    rec = run_mission(name, scene, mission, cands, client, cfg, recorder or ListRecorder(), world=world)
+    rec = run_mission(name, world, mission, cands, client, cfg, recorder or ListRecorder()).to_dict()
     return rec, world
 
 
 def test_registry_has_the_three_planners():
-    assert {"inter_llm", "sayplan", "moma_llm"} <= set(names())
+    assert {"inter_llm", "sayplan", "moma_llm"} <= set(PLANNERS.names())
 
 
 def test_initial_candidates_are_m_distinct_feasible_plans_and_deterministic():
@@ -159,9 +159,9 @@ def test_blocked_navigation_is_skipped_and_recorded():
 
 def test_unknown_planner_and_missing_candidates_raise():
     scene, mission = tiny_scene(), tiny_mission()
-    with pytest.raises(KeyError, match="registered planners"):
-        run_mission("greedy", scene, mission, {"breakfast": [], "reading": []}, FakeScoreClient(),
-                    ExperimentConfig(), world=SymbolicWorld(scene, ExperimentConfig().sim))
+    with pytest.raises(ConfigError, match="'greedy' is not a registered planner"):
+        run_mission("greedy", SymbolicWorld(scene, ExperimentConfig().sim), mission, {"breakfast": [], "reading": []},
+                    FakeScoreClient(), ExperimentConfig())
     with pytest.raises(ValueError, match="candidates stage"):
-        run_mission("sayplan", scene, mission, {"breakfast": []}, FakeScoreClient(), ExperimentConfig(),
-                    world=SymbolicWorld(scene, ExperimentConfig().sim))
+        run_mission("sayplan", SymbolicWorld(scene, ExperimentConfig().sim), mission, {"breakfast": []},
+                    FakeScoreClient(), ExperimentConfig())

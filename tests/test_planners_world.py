@@ -7,9 +7,14 @@ from test_planners_fakes import FakeScoreClient
 
 from interllm.config import ExperimentConfig, MissionConfig
 from interllm.core.actions import State, plan_from_list
+from interllm.metrics.compute import Gammas, mission_rows
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
 from interllm.planning.feasibility import check_plan
+from interllm.record import McapRecorder, read_run
+from interllm.sim.kinematics import RobotKinematics
+from interllm.sim.world import World
+from interllm.stages.missions import metric_rows_logger
 
 pytest.importorskip("mujoco")
 generator = pytest.importorskip("interllm.scene.generator")
@@ -34,7 +39,7 @@ def test_each_planner_on_the_real_world(tiny, name):
     start = State(mission.start_furniture, scene.furniture[mission.start_furniture].room)
     for plans in cands.values():
         assert all(check_plan(plan_from_list(p), scene, start).valid for p in plans)
-    rec = run_mission(name, scene, mission, cands, client, cfg, None)
+    rec = run_mission(name, World(scene, cfg.sim), mission, cands, client, cfg).to_dict()
     json.dumps(rec)
     assert len(rec["commands"]) == len(mission.commands)
     acts = [a for c in rec["commands"] for a in c["actions"]]
@@ -61,18 +66,15 @@ def test_inter_llm_with_the_real_embedded_model_on_one_command(tiny, tmp_path):
     cands = generate_initial_candidates(scene, mission, client, cfg)
     cmd = mission.commands[0]
     assert len(cands[cmd.id]) == cfg.planner.M
-    rec = run_mission("inter_llm", scene, mission, cands, client, cfg, None)
-    s = rec["commands"][0]["summary"]
-    assert s["candidates"] and len(s["estimated_costs"]) == len(s["candidates"])
-    assert rec["commands"][0]["actions"]
+    rec = run_mission("inter_llm", World(scene, cfg.sim), mission, cands, client, cfg)
+    s = rec.commands[0].summary
+    assert s.candidates and len(s.estimated_costs) == len(s.candidates)
+    assert rec.commands[0].actions
 
 
 def test_run_log_has_every_llm_call_and_the_per_object_metrics(tiny, tmp_path):
     """The mission's MCAP holds one /llm/calls event per counted call and, at the end of each
     command, that command's per-object rows exactly as the aggregate stage computes them."""
-    from interllm.metrics.compute import Gammas, mission_rows
-    from interllm.record import McapRecorder, read_run
-    from interllm.sim.kinematics import RobotKinematics
 
     scene, mission = tiny
     cfg = ExperimentConfig()
@@ -83,11 +85,12 @@ def test_run_log_has_every_llm_call_and_the_per_object_metrics(tiny, tmp_path):
     for i in range(2):
         paths.append(tmp_path / f"run{i}.mcap")
         with McapRecorder(paths[-1], scene, {"seed": 0}, robot=RobotKinematics(cfg.sim)) as rec:
-            record = run_mission("inter_llm", scene, mission, cands, FakeScoreClient(), cfg, rec)
+            hook = metric_rows_logger(rec, "inter_llm", scene, mission.id, Gammas.from_config(cfg))
+            record = run_mission("inter_llm", World(scene, cfg.sim), mission, cands, FakeScoreClient(), cfg, rec, hook)
     assert paths[0].read_bytes() == paths[1].read_bytes()  # same inputs, same bytes
     run = read_run(paths[0])
     calls = run.events["/llm/calls"]
-    assert len(calls) == sum(c["summary"]["llm_calls"] for c in record["commands"]) > 0
+    assert len(calls) == sum(c.summary.llm_calls for c in record.commands) > 0
     assert all(p["key"] and p["kind"] in ("score", "complete") and p["purpose"] for _, p in calls)
     assert [t for t, _ in calls] == sorted(t for t, _ in calls)
     scene_map = {"category": {o.id: o.category for o in scene.objects.values()},
@@ -100,7 +103,7 @@ def test_run_log_has_every_llm_call_and_the_per_object_metrics(tiny, tmp_path):
     assert mission_row["m_overall"] == pytest.approx(sum(r["m_overall"] for r in logged))
     # each command's rows are logged when it ends: at the simulated time of its last action
     clock, ends = 0.0, []
-    for c in record["commands"]:
-        clock += sum(a["time"] for a in c["actions"])
+    for c in record.commands:
+        clock += sum(a.time for a in c.actions)
         ends.append(clock)
     assert [t for t, _ in run.events["/metrics/command"]] == pytest.approx(ends)

@@ -5,22 +5,23 @@ from test_planners_fakes import FakeScoreClient, ScriptedClient, tiny_mission, t
 from interllm.config import ExperimentConfig
 from interllm.core.actions import Action, State
 from interllm.core.seeding import planning_seed
-from interllm.planning import proposals as P
+from interllm.planning import generation, plans, scoring
 from interllm.planning.feasibility import check_plan
 from interllm.planning.memory import KnownCosts
+from interllm.planning.proposers import make_proposer
 
 START = State("dining_table_1", "kitchen_1")
 
 
 def scores_table():
-    return P.SemanticScores(
+    return scoring.SemanticScores(
         categories={},
         instances={"apple_1": 3.0, "banana_1": 2.5, "mug_1": 1.0, "book_1": 0.4, "laptop_1": 0.0},
         targets={"dining_table_1": 2.0, "counter_1": 1.0, "sofa_1": 0.0, "desk_1": -1.0})
 
 
 def test_temperature_zero_is_argmax_then_next_best():
-    sels = P.sample_selections(scores_table(), tiny_scene(), START, 2, 3, 0.0, np.random.default_rng(0))
+    sels = scoring.sample_selections(scores_table(), tiny_scene(), START, 2, 3, 0.0, np.random.default_rng(0))
     # summed scores on the dining table: apple+banana 2+3+2.5 = 7.5, apple+mug 6.0, banana+mug 5.5,
     # apple+book 5.4; the best on the counter (apple and banana are on it) is mug+book 1+1+0.4 = 2.4
     assert sels[0] == (("apple_1", "banana_1"), "dining_table_1")
@@ -30,31 +31,31 @@ def test_temperature_zero_is_argmax_then_next_best():
 
 def test_sampling_is_deterministic_by_seed_and_distinct():
     sc, scene = scores_table(), tiny_scene()
-    a = P.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(7))
-    b = P.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(7))
+    a = scoring.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(7))
+    b = scoring.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(7))
     assert a == b and len(a) == 4
     assert len({(frozenset(o), t) for o, t in a}) == 4
     for objs, tgt in a:  # never picks an object already on the target
         assert all(scene.objects[o].furniture != tgt for o in objs)
-    others = [P.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(s)) for s in range(1, 6)]
+    others = [scoring.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(s)) for s in range(1, 6)]
     assert any(o != a for o in others)
 
 
 def test_assembled_plans_are_feasible_and_skip_redundant_navigation():
     scene = tiny_scene()
-    plan = P.assemble_plan(scene, State("counter_1", "kitchen_1"), ["apple_1", "mug_1"], "dining_table_1")
+    plan = plans.assemble_plan(scene, State("counter_1", "kitchen_1"), ["apple_1", "mug_1"], "dining_table_1")
     assert [str(a) for a in plan] == [
         "pickup(apple_1, counter_1)", "navigate(dining_table_1, kitchen_1)", "place(apple_1, dining_table_1)",
         "navigate(desk_1, living_room_1)", "pickup(mug_1, desk_1)", "navigate(dining_table_1, kitchen_1)",
         "place(mug_1, dining_table_1)"]
     assert check_plan(plan, scene, State("counter_1", "kitchen_1")).valid
-    held = P.assemble_plan(scene, State("counter_1", "kitchen_1", "apple_1"), [], "sofa_1")
+    held = plans.assemble_plan(scene, State("counter_1", "kitchen_1", "apple_1"), [], "sofa_1")
     assert [str(a) for a in held] == ["navigate(sofa_1, living_room_1)", "place(apple_1, sofa_1)"]
 
 
 def test_score_command_with_fake_scorer_ranks_by_the_command():
     cfg = ExperimentConfig()
-    sc = P.score_command(FakeScoreClient(), tiny_scene(), tiny_mission().commands[0], cfg)
+    sc = scoring.score_command(FakeScoreClient(), tiny_scene(), tiny_mission().commands[0], cfg.llm)
     top = sorted(sc.instances, key=lambda o: -sc.instances[o])[:2]
     assert set(top) == {"apple_1", "banana_1"}
     assert max(sc.targets, key=sc.targets.get) == "dining_table_1"
@@ -65,28 +66,28 @@ def test_repair_reassembles_from_the_current_scene_and_replaces_bad_choices():
     bad = (Action("pickup", "sofa_1", obj="apple_1"), Action("place", "dining_table_1", obj="apple_1"),
            Action("pickup", "counter_1", obj="pear_9"), Action("place", "dining_table_1", obj="pear_9"))
     assert not check_plan(bad, scene, START).valid
-    fixed = P.repair_by_scores(bad, scores_table(), scene, START, 2)
+    fixed = scoring.repair_by_scores(bad, scores_table(), scene, START, 2)
     assert check_plan(fixed, scene, START).valid
     assert [a.obj for a in fixed if a.kind == "place"] == ["apple_1", "banana_1"]
-    fixed2 = P.repair_by_scores(bad, scores_table(), scene, START, 2, exclude_objects=["apple_1"])
+    fixed2 = scoring.repair_by_scores(bad, scores_table(), scene, START, 2, exclude_objects=["apple_1"])
     assert [a.obj for a in fixed2 if a.kind == "place"] == ["banana_1", "mug_1"]
 
 
 def test_parse_plan_and_schema():
     scene = tiny_scene()
-    schema = P.plan_schema(scene)
+    schema = plans.plan_schema(scene)
     assert "apple_1" in schema["properties"]["actions"]["items"]["properties"]["object"]["enum"]
-    plan = P.parse_plan({"actions": [{"action": "navigate", "furniture": "sofa_1", "room": "living_room_1",
+    plan = plans.parse_plan({"actions": [{"action": "navigate", "furniture": "sofa_1", "room": "living_room_1",
                                       "object": ""},
                                      {"action": "pickup", "furniture": "sofa_1", "room": "", "object": "book_1"}]})
     assert [str(a) for a in plan] == ["navigate(sofa_1, living_room_1)", "pickup(book_1, sofa_1)"]
-    assert P.parse_plan(None) == () and P.parse_plan({"actions": [{"action": "fly"}]}) == ()
+    assert plans.parse_plan(None) == () and plans.parse_plan({"actions": [{"action": "fly"}]}) == ()
 
 
 def test_generate_plans_one_call_per_candidate_with_sample_index():
     ans = {"actions": [{"action": "navigate", "furniture": "counter_1", "room": "kitchen_1", "object": ""}]}
     client = ScriptedClient(ans)
-    plans = P.generate_plans(client, tiny_scene(), START, tiny_mission().commands[0], ExperimentConfig(), 3, 2)
+    plans = generation.generate_plans(client, tiny_scene(), START, tiny_mission().commands[0], ExperimentConfig().llm, 3, 2)
     assert len(plans) == 3 and [r.options.sample_index for r in client.requests] == [0, 1, 2]
     text = client.requests[0].messages[0].content
     assert text.index('"rooms"') < text.index("Command: Put an apple")  # static part first
@@ -96,26 +97,27 @@ def test_generate_plans_one_call_per_candidate_with_sample_index():
 def test_cost_inference_unknown_without_known_costs_and_sampled_with_them():
     cfg, scene = ExperimentConfig(), tiny_scene()
     client = FakeScoreClient()
+    costs = make_proposer(client, cfg.llm).costs
     pick = Action("pickup", "counter_1", obj="banana_1")
-    assert P.infer_manipulation_cost(client, pick, scene, KnownCosts(), cfg) == "unknown"
+    assert costs.infer(pick, scene, KnownCosts(), seed_parts=(), context=()) == "unknown"
     assert client.n_score == 0
     k = KnownCosts()
     k.add_manipulation(Action("pickup", "counter_1", obj="apple_1"), START, 3.0)
-    labs = {P.infer_manipulation_cost(client, pick, scene, k, cfg, (s,)) for s in range(30)}
+    labs = {costs.infer(pick, scene, k, seed_parts=(s,), context=()) for s in range(30)}
     assert labs <= {"easy", "medium", "hard", "unknown"} and len(labs) > 1  # sampled at T = 0.8
-    a = [P.infer_manipulation_cost(client, pick, scene, k, cfg, ("x",)) for _ in range(3)]
+    a = [costs.infer(pick, scene, k, seed_parts=("x",), context=()) for _ in range(3)]
     assert len(set(a)) == 1  # same seed parts -> same label
     gen = ScriptedClient({"cost": "hard"})
     cfg_g = ExperimentConfig()
     cfg_g.llm.cost_inference_mode = "generate"
-    assert P.infer_manipulation_cost(gen, pick, scene, k, cfg_g) == "hard"
+    assert make_proposer(gen, cfg_g.llm).costs.infer(pick, scene, k, seed_parts=(), context=()) == "hard"
     prompt = gen.requests[0].messages[0].content
     assert "pickup apple (for eating) from the counter in the kitchen: easy" in prompt
 
 
 @pytest.mark.parametrize("scores,label", [([0, 1, 3, 2], "hard"), ([5, 1, 0, 0], "easy")])
 def test_sample_label_argmax_at_zero_temperature(scores, label):
-    assert P.sample_label(scores, 0.0, 1) == label
+    assert scoring.sample_label(scores, 0.0, 1) == label
 
 
 def test_planning_seed_is_stable():

@@ -15,7 +15,7 @@ import numpy as np
 
 from interllm.core.actions import Action
 from interllm.core.results import ActionResult, ManipulationTrial, Trajectory
-from interllm.record.mcap_writer import McapRecorder
+from interllm.record.recorder import McapRecorder
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.grid import rasterize
 

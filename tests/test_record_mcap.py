@@ -245,7 +245,7 @@ def test_batch_message_path_writes_the_same_bytes_as_add_message(chunk_size):
 
     from mcap.writer import CompressionType, Writer
 
-    from interllm.record.mcap_writer import _BatchWriter
+    from interllm.record.batch import BatchWriter as _BatchWriter
 
     rng = np.random.default_rng(0)
     rows = [(1 + int(rng.integers(0, 2)), int(t), rng.bytes(int(rng.integers(0, 300))), k)
@@ -279,7 +279,7 @@ def test_batch_message_path_writes_the_same_bytes_as_add_message(chunk_size):
 
 def test_joint_states_are_canonical_json_with_the_base_pose(run_file):
     """The hand-formatted fast path gives exactly json.dumps(sort_keys=True) of the sample."""
-    from interllm.record.mcap_writer import JOINT_STATES_SCHEMA, dumps
+    from interllm.record.topics import JOINT_STATES_SCHEMA, dumps
 
     path, acts, _ = run_file
     msgs, _ = _raw(path)

@@ -56,12 +56,12 @@ def test_chain_matches_mujoco_on_the_full_house_model(kin):
     w = World(house(), SimConfig())
     w.reset(mission())
     rng = np.random.default_rng(0)
-    m, d = w.model, w.data
+    m, d = w.physics.model, w.physics.data
     for _ in range(20):
         base = (rng.uniform(1, 3), rng.uniform(1, 3), rng.uniform(-math.pi, math.pi))
         q = rng.uniform(-1.5, 1.5, size=6)
-        w.set_base(*base)
-        w.set_arm(q)
+        w.physics.set_base(*base)
+        w.physics.set_arm(q)
         t, quat = kin.link_poses(q)
         poses = {"base_link": [_base_pose(*base)]}
         for i, (parent, child) in enumerate(kin.chain):
@@ -69,7 +69,7 @@ def test_chain_matches_mujoco_on_the_full_house_model(kin):
         for child in kin.frames:
             p, r = _compose(poses[child])
             if child == GRIP_FRAME:
-                want_p, want_r = w.grip_pose()
+                want_p, want_r = w.physics.grip_pose()
             else:
                 bid = m.body(f"robot/{child}").id
                 want_p, want_r = d.xpos[bid], d.xmat[bid].reshape(3, 3)
@@ -152,9 +152,9 @@ def test_tf_is_sparse_and_its_chain_puts_the_gripper_where_mujoco_does(carried, 
             j = int(np.searchsorted(fs.t, t + 1e-9, side="right")) - 1
             chain.append((fs.xyz[j], fs.quat[j]))
         p, r = _compose(chain)
-        check.set_base(*pickup.trajectory.base[k])
-        check.set_arm(pickup.trajectory.joints[k])
-        want_p, want_r = check.grip_pose()
+        check.physics.set_base(*pickup.trajectory.base[k])
+        check.physics.set_arm(pickup.trajectory.joints[k])
+        want_p, want_r = check.physics.grip_pose()
         np.testing.assert_allclose(p, want_p, atol=1e-6)
         np.testing.assert_allclose(r, want_r, atol=1e-6)
 
@@ -226,7 +226,7 @@ def test_an_event_for_an_unknown_object_writes_nothing_of_the_action(tmp_path):
 
 
 def test_signed_zero_and_infinite_yaw_are_logged_as_given(tmp_path):
-    from interllm.record.mcap_writer import dumps
+    from interllm.record.topics import dumps
 
     r, ctx = make_actions(1, 4)[0]
     r.trajectory.base = np.array([[0.0, 1.0, 0.0], [-0.0, 1.0, 0.0], [-0.0, 1.0, float("inf")], [1.0, 1.0, 0.5]])

@@ -18,11 +18,14 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from interllm import experiment as ex
 from interllm import numerics
 from interllm.llm.cache import CacheMissError
 from interllm.metrics.compare import committed_file, compare_metrics
 from interllm.numerics import describe_environment_change, environment_record
+from interllm.stages.aggregate import run_aggregate
+from interllm.stages.candidates import run_candidates
+from interllm.stages.missions import run_missions
+from interllm.stages.scenes import run_scenes
 from pipeline._hydra import compose
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -85,15 +88,15 @@ def test_committed_metrics_reproduce_from_the_committed_cache(tmp_path, monkeypa
     cfg = OmegaConf.to_object(compose(["llm.cache_mode=replay"]))
     cfg.llm.cache_dir = str(ROOT / "data" / "llm_cache")
     try:
-        ex.run_scenes(cfg, tmp_path / "scenes")
-        ex.run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
-        ex.run_missions(cfg, tmp_path / "scenes", tmp_path / "candidates", tmp_path / "runs")
+        run_scenes(cfg, tmp_path / "scenes")
+        run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
+        run_missions(cfg, tmp_path / "scenes", tmp_path / "candidates", tmp_path / "runs")
     except (RuntimeError, CacheMissError) as e:  # the missions stage wraps a worker's CacheMissError
         if "CacheMissError" not in f"{type(e).__name__}: {e}":
             raise
         pytest.fail(f"a prompt is not in the committed cache, so the run diverged:\n  "
                     f"{_what_differs(tmp_path / 'runs')}\n({e})")
-    ex.run_aggregate(cfg, tmp_path / "runs", tmp_path / "scenes", tmp_path / "metrics", tmp_path / "candidates")
+    run_aggregate(cfg, tmp_path / "runs", tmp_path / "scenes", tmp_path / "metrics", tmp_path / "candidates")
     got = (tmp_path / "metrics" / "metrics.json").read_bytes()
     if got == want:
         return

@@ -20,10 +20,11 @@ sys.path.insert(0, str(Path(__file__).parent))
 from ollama_fixture import FakeOllama, free_port  # noqa: E402
 
 from interllm.config import ConfigError, ExperimentConfig, LLMConfig, from_dict  # noqa: E402
-from interllm.llm import DeterministicBackend, LLMRequest, Message, make_client  # noqa: E402
-from interllm.llm.client import LLMQualityError  # noqa: E402
+from interllm.llm import LLMRequest, Message, make_client  # noqa: E402
 from interllm.llm.deadline import DeadlineExceeded  # noqa: E402
+from interllm.llm.errors import LLMQualityError  # noqa: E402
 from interllm.llm.ollama_backend import OllamaProtocolError  # noqa: E402
+from interllm.llm.testing import DeterministicBackend  # noqa: E402
 from interllm.scene import SceneValidationError, generate_scene, load_scene_file, scene_config  # noqa: E402
 from interllm.scene.generator import SceneGenerationError  # noqa: E402
 
@@ -45,7 +46,8 @@ def _ollama_cfg(host: str, tmp_path: Path, **kw) -> LLMConfig:
 
 # -- a broken model fails loudly --------------------------------------------------------------------
 def test_a_model_that_answers_garbage_stops_the_candidates_stage(tmp_path):
-    from interllm.experiment import run_candidates, run_scenes
+    from interllm.stages.candidates import run_candidates
+    from interllm.stages.scenes import run_scenes
 
     with FakeOllama(fault="garbage") as srv:
         cfg = ExperimentConfig(scene=scene_config("tiny"), llm=_ollama_cfg(srv.host, tmp_path))
@@ -127,7 +129,9 @@ def test_stages_run_with_the_project_interpreter_whatever_path_says(tmp_path):
 KILL_SCRIPT = """
 import sys
 from interllm.config import from_dict
-from interllm.experiment import run_candidates, run_missions, run_scenes
+from interllm.stages.candidates import run_candidates
+from interllm.stages.missions import run_missions
+from interllm.stages.scenes import run_scenes
 root = sys.argv[1]
 cfg = from_dict({"jobs": 2, "scene": {"n_scenes": 1}, "mission": {"limit_missions": 2},
                  "llm": {"cache_mode": "replay", "cache_dir": sys.argv[2]}})
@@ -362,7 +366,8 @@ READONLY_SCRIPT = """
 import logging, sys
 logging.basicConfig(level=logging.WARNING)
 from interllm.config import LLMConfig
-from interllm.llm import DeterministicBackend, LLMRequest, Message, make_client
+from interllm.llm import LLMRequest, Message, make_client
+from interllm.llm.testing import DeterministicBackend
 schema = {"type": "object", "properties": {"a": {"type": "integer"}}, "required": ["a"]}
 c = make_client(LLMConfig(cache_dir=sys.argv[1]), backend=DeterministicBackend())
 for text in ("Give a.", "Give another a."):  # a hit, then a miss

@@ -21,7 +21,7 @@ from interllm.scene import (
     scene_json_schema,
     unreachable,
 )
-from interllm.scene.generator import edge_distances, free_edges
+from interllm.scene.geometry import edge_distances, free_edges
 
 R = 0.25
 

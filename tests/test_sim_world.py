@@ -55,7 +55,7 @@ def test_reset_state_and_pose(world_open):
     assert st == State("counter_1", "room_a", None)
     assert w.robot_pose == pytest.approx(START)
     assert w.clock == 0.0
-    assert w.true_grid.occupied.shape == w.presumed_grid.occupied.shape
+    assert w.belief.true.occupied.shape == w.belief.presumed.occupied.shape
 
 
 def test_straight_corridor_distance_equals_path_length(world_open):
@@ -99,9 +99,9 @@ def test_half_closed_door_one_collision_and_replan_through_other_door():
     assert r.cost == pytest.approx(nav_cost(1, r.time, r.distance, cfg.gamma_nav))
     assert r.time >= r.distance / cfg.base_speed + cfg.recovery_time
     # the belief map learned the leaf; the truth map is untouched and never used
-    leaf_cell = tuple(w.presumed_grid.world_to_cell(np.array([3.9, 0.75])))
-    assert w.presumed_grid.occupied[leaf_cell]
-    assert np.array_equal(w.true_grid.occupied, World(house(open_a=0.5)).true_grid.occupied)
+    leaf_cell = tuple(w.belief.presumed.world_to_cell(np.array([3.9, 0.75])))
+    assert w.belief.presumed.occupied[leaf_cell]
+    assert np.array_equal(w.belief.true.occupied, World(house(open_a=0.5)).belief.true.occupied)
     # the next plan through the area avoids door_a at once
     p = w.presumed_path(START[:2], "sofa_1")
     cross = p[np.argmin(np.abs(p[:, 0] - 4.0))]
@@ -152,7 +152,7 @@ def test_deep_object_fails_from_every_pose_front_succeeds():
     # sampled poses: free on the belief map, next to the table, facing the target
     for t in front.trials:
         x, y, yaw = t.base_pose
-        assert w.presumed_grid.is_free(w.presumed_grid.world_to_cell(np.array([x, y])))
+        assert w.belief.presumed.is_free(w.belief.presumed.world_to_cell(np.array([x, y])))
         assert yaw == pytest.approx(math.atan2(1.9 - y, 6.3 - x), abs=1e-5)
     assert w.state == State("table_1", "room_b", "cup_1")
     assert w.clock == pytest.approx(sum(r.time for r in w.log))
@@ -165,16 +165,16 @@ def test_carry_moves_with_gripper_and_place_rests_on_surface():
     assert w.execute(Action("pickup", "table_1", obj="cup_1")).success
 
     def rel():
-        p_s, r_s = w.grip_pose()
-        p_o, _ = w.object_pose("cup_1")
+        p_s, r_s = w.physics.grip_pose()
+        p_o, _ = w.physics.object_pose("cup_1")
         return r_s.T @ (p_o - p_s)
 
     off0 = rel()
     assert np.linalg.norm(off0) < 0.05  # grasped at its centre (within tolerance)
-    p_before, _ = w.object_pose("cup_1")
+    p_before, _ = w.physics.object_pose("cup_1")
     r = w.execute(nav("counter_1", "room_a"))
     assert r.success
-    p_after, _ = w.object_pose("cup_1")
+    p_after, _ = w.physics.object_pose("cup_1")
     assert np.linalg.norm(p_after[:2] - p_before[:2]) > 3.0  # it travelled with the robot
     assert np.allclose(rel(), off0, atol=1e-9)
     pl = w.execute(Action("place", "counter_1", obj="cup_1"))
@@ -186,11 +186,11 @@ def test_carry_moves_with_gripper_and_place_rests_on_surface():
     x0, y0, x1, y1 = f.footprint
     assert x0 <= o.position[0] - o.size[0] / 2 and o.position[0] + o.size[0] / 2 <= x1
     assert y0 <= o.position[1] - o.size[1] / 2 and o.position[1] + o.size[1] / 2 <= y1
-    assert np.allclose(w.object_pose("cup_1")[0], o.position)
+    assert np.allclose(w.physics.object_pose("cup_1")[0], o.position)
     assert w.state == State("counter_1", "room_a", None)
     # the hand moves away, the object stays
-    w.set_arm(np.zeros(6))
-    assert np.allclose(w.object_pose("cup_1")[0], o.position)
+    w.physics.set_arm(np.zeros(6))
+    assert np.allclose(w.physics.object_pose("cup_1")[0], o.position)
 
 
 def test_manipulation_preconditions():

@@ -93,15 +93,16 @@ class ActionResult:
 
     @classmethod
     def from_record(cls, d: dict) -> ActionResult:
+        """The inverse of ``to_record`` (without the trajectory and object events, which the run
+        log holds); every key is required."""
         return cls(
             action=Action.from_dict(d["action"]), success=d["success"], cost=d["cost"],
-            time=d["time"], t_start=d.get("t_start", 0.0), collisions=d["collisions"],
+            time=d["time"], t_start=d["t_start"], collisions=d["collisions"],
             distance=d["distance"], success_rate=d["success_rate"],
-            trials=[ManipulationTrial(**{**t, "base_pose": tuple(t["base_pose"])})
-                    for t in d.get("trials", [])],
-            presumed_path=None if d.get("presumed_path") is None else np.asarray(d["presumed_path"]),
-            driven_path=None if d.get("driven_path") is None else np.asarray(d["driven_path"]),
-            reason=d.get("reason", ""))
+            trials=[ManipulationTrial(**{**t, "base_pose": tuple(t["base_pose"])}) for t in d["trials"]],
+            presumed_path=None if d["presumed_path"] is None else np.asarray(d["presumed_path"]),
+            driven_path=None if d["driven_path"] is None else np.asarray(d["driven_path"]),
+            reason=d["reason"])
 
 
 def nav_cost(collisions: int, time: float, distance: float, gamma_nav: float) -> float:

@@ -1,26 +1,24 @@
-"""Local LLM layer: one cached, logged client over an embedded llama.cpp model or Ollama.
+"""LLM layer: one cached, logged client over a backend (embedded llama.cpp, Ollama).
 
     from interllm.llm import make_client, LLMRequest, Message
     client = make_client(cfg.llm, call_log_path="data/runs/llm_calls.jsonl", context={"stage": "candidates"})
     resp = client.with_context(planner="inter_llm", mission="m0").complete(
         LLMRequest(purpose="candidates", messages=(Message("user", "..."),), schema={...},
                    options=client.default_options(sample_index=j, seed=planning_seed(base, "candidates", j))))
+
+Modules: ``types`` (requests and responses), ``backend`` (the Backend protocol and factory),
+``client`` (cache + call log + schema repair), ``cache``, ``calllog``, ``schema``, ``health``
+(failure share), ``deadline``, ``prompts``, ``errors``; backends ``embedded`` and
+``ollama_backend``; ``testing`` holds a deterministic test backend (never imported here).
 """
 
+from interllm.llm.backend import Backend, Generation, Scores, make_backend, preflight
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog
-from interllm.llm.client import (
-    ClientStats,
-    DeterministicBackend,
-    LLMClient,
-    LLMError,
-    LLMOutputError,
-    check_answer,
-    make_backend,
-    make_client,
-    schema_instance,
-)
+from interllm.llm.client import ClientStats, LLMClient, make_client
+from interllm.llm.errors import LLMError, LLMOutputError, LLMQualityError
 from interllm.llm.prompts import Template, TemplateError, load_template, template_names
+from interllm.llm.schema import check_answer
 from interllm.llm.types import (
     LLMClientProtocol,
     LLMOptions,
@@ -32,8 +30,8 @@ from interllm.llm.types import (
 )
 
 __all__ = [
-    "CacheMissError", "CallLog", "ClientStats", "DeterministicBackend", "LLMClient", "LLMClientProtocol",
-    "LLMError", "LLMOptions", "LLMOutputError", "LLMRequest", "LLMResponse", "Message", "ResponseCache",
-    "ScoreRequest", "ScoreResponse", "Template", "TemplateError", "cache_key", "check_answer",
-    "load_template", "make_backend", "make_client", "schema_instance", "template_names",
+    "Backend", "CacheMissError", "CallLog", "ClientStats", "Generation", "LLMClient", "LLMClientProtocol",
+    "LLMError", "LLMOptions", "LLMOutputError", "LLMQualityError", "LLMRequest", "LLMResponse", "Message",
+    "ResponseCache", "ScoreRequest", "ScoreResponse", "Scores", "Template", "TemplateError", "cache_key",
+    "check_answer", "load_template", "make_backend", "make_client", "preflight", "template_names",
 ]

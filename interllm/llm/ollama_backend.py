@@ -24,7 +24,8 @@ from typing import Any, Optional
 
 from interllm.config import LLMConfig
 from interllm.errors import UserError
-from interllm.llm.embedded import Generation, Scores
+from interllm.llm.backend import Generation, Scores
+from interllm.llm.deadline import DeadlineExceeded, call_with_deadline
 from interllm.llm.types import LLMOptions, Message
 
 
@@ -54,7 +55,7 @@ class OllamaBackend:
     @property
     def client(self):
         if self._client is None:
-            import ollama
+            import ollama  # lazy: optional dependency, only for this backend
 
             self._client = ollama.Client(host=self.cfg.host, timeout=self.cfg.timeout_s)
         return self._client
@@ -94,10 +95,8 @@ class OllamaBackend:
 
     def _call(self, endpoint: str, fn):
         """``fn(client)`` within the whole-call deadline, with every failure named by URL and fix."""
-        import httpx
-        import ollama
-
-        from interllm.llm.deadline import DeadlineExceeded, call_with_deadline
+        import httpx  # lazy: optional dependency, only for this backend
+        import ollama  # lazy: optional dependency, only for this backend
 
         client = self.client
         url = f"{self.cfg.host}{endpoint}"

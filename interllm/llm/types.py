@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Optional, Protocol
 
@@ -74,6 +75,12 @@ class ScoreResponse:
 
 
 class LLMClientProtocol(Protocol):
+    """What planners and proposers need of a client (``interllm.llm.client.LLMClient``)."""
+
     def complete(self, request: LLMRequest) -> LLMResponse: ...
 
     def score(self, request: ScoreRequest) -> ScoreResponse: ...
+
+    def with_context(self, **labels: Any) -> LLMClientProtocol: ...
+
+    def with_observer(self, observer: Callable[[Any, Any], None]) -> LLMClientProtocol: ...

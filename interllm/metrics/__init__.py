@@ -21,11 +21,10 @@ from interllm.metrics.compute import (
 from interllm.metrics.stats import (
     bootstrap_mean_ci,
     compare_planners,
-    cost_class,
     paired_improvement,
     semantic_accuracy,
 )
 
 __all__ = ["Gammas", "MetricsInputError", "aggregate", "bootstrap_mean_ci", "compare_planners",
-           "compute_tables", "cost_class", "load_runs", "load_scene_categories", "m_overall", "mission_rows",
+           "compute_tables", "load_runs", "load_scene_categories", "m_overall", "mission_rows",
            "paired_improvement", "read_csv", "semantic_accuracy", "write_csv"]

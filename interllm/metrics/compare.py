@@ -10,6 +10,7 @@ improvement and whether its CI excludes 0.
 from __future__ import annotations
 
 import math
+import subprocess
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -124,8 +125,6 @@ def compare_metrics(reference: dict, current: dict) -> Comparison:
 def committed_file(repo_root, relpath: str, rev: str = "HEAD") -> bytes | None:
     """``git show REV:relpath`` in ``repo_root``; None when there is no git, no history or no
     such file at that revision."""
-    import subprocess
-
     try:
         r = subprocess.run(["git", "-C", str(repo_root), "show", f"{rev}:{relpath}"], capture_output=True,
                            timeout=30)

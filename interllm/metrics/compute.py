@@ -1,11 +1,7 @@
 """Per-object, per-command and per-mission metrics of executed missions (paper §V).
 
-Input: one MissionRecord per run, ``data/runs/<planner>/<scene>/<mission>.json``::
-
-    {"planner", "scene_id", "mission_id", "sim_time",
-     "commands": [{"command_id", "text", "goal": {"categories", "target_furniture", "n_objects"},
-                   "summary": CommandResult.summary(), "actions": [ActionResult.to_record()],
-                   "final_locations": {object_id: furniture_id | "held"}}]}
+Input: one typed MissionRecord per run (``interllm.core.records``), read from
+``data/runs/<planner>/<scene>/<mission>.json``.
 
 The paper's unit is the *object*. How executed actions become per-object metrics:
 
@@ -42,15 +38,19 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
+from interllm.core.records import CommandRecord, MissionRecord
+from interllm.core.results import ActionResult
 from interllm.core.seeding import bootstrap_seed
 from interllm.errors import UserError
-from interllm.io import atomic_write_text, read_json
+from interllm.io import atomic_write_text, read_json, write_json
+from interllm.metrics import stats
 
 MANIPULATION_KINDS = ("pickup", "place")
 PER_OBJECT_FIELDS = ("planner", "scene", "mission", "command_index", "command", "slot", "object_index",
@@ -100,26 +100,9 @@ def _require(d: Mapping, key: str, where: str) -> Any:
     return d[key]
 
 
-def validate_record(rec: Mapping, where: str = "MissionRecord") -> None:
-    """Raise MetricsInputError naming the first missing key of a MissionRecord."""
-    for k in ("planner", "scene_id", "mission_id", "commands"):
-        _require(rec, k, where)
-    for ci, c in enumerate(rec["commands"]):
-        w = f"{where}: commands[{ci}]"
-        for k in ("command_id", "goal", "actions"):
-            _require(c, k, w)
-        for k in ("categories", "target_furniture", "n_objects"):
-            _require(c["goal"], k, f"{w}.goal")
-        for ai, a in enumerate(c["actions"]):
-            for k in ("action", "success", "time"):
-                _require(a, k, f"{w}.actions[{ai}]")
-
-
 def call_log_counts(path: str | os.PathLike) -> dict:
     """Calls and failed calls (an error: unparseable after the repairs, or the backend failed) of a
     JSONL call log, in all and per planner; a missing log counts nothing."""
-    import json
-
     out: dict[str, Any] = {"calls": 0, "failed": 0, "failed_by_planner": {}}
     p = Path(path)
     if not p.is_file():
@@ -137,22 +120,13 @@ def call_log_counts(path: str | os.PathLike) -> dict:
     return out
 
 
-def load_runs(runs_dir: str | os.PathLike) -> list[dict]:
+def load_runs(runs_dir: str | os.PathLike) -> list[MissionRecord]:
     """All MissionRecords under ``runs_dir/<planner>/<scene>/<mission>.json``, in sorted path order."""
     runs_dir = Path(runs_dir)
     if not runs_dir.is_dir():
         raise MetricsInputError(f"runs folder {runs_dir} does not exist; run the 'missions' stage "
                                 f"first or pass the folder holding <planner>/<scene>/<mission>.json")
-    out = []
-    for p in sorted(runs_dir.glob("*/*/*.json")):
-        rec = read_json(p)
-        if not isinstance(rec, dict) or "commands" not in rec:
-            continue  # another JSON file (e.g. a run manifest), not a MissionRecord
-        validate_record(rec, str(p))
-        rec = dict(rec)
-        rec.setdefault("_path", str(p.relative_to(runs_dir)))
-        out.append(rec)
-    return out
+    return [MissionRecord.from_dict(read_json(p), str(p)) for p in sorted(runs_dir.glob("*/*/*.json"))]
 
 
 def load_scene_categories(scenes_dir: str | os.PathLike, scene_ids: Iterable[str]) -> dict[str, dict]:
@@ -174,24 +148,15 @@ def load_scene_categories(scenes_dir: str | os.PathLike, scene_ids: Iterable[str
 
 
 # ---- per object --------------------------------------------------------------------------------
-def _kind(a: Mapping) -> str:
-    return str(a.get("kind") or a["action"].get("action") or a["action"].get("kind"))
-
-
-def _obj(a: Mapping) -> Optional[str]:
-    act = a["action"]
-    return act.get("object") or act.get("obj")
-
-
-def assign_slots(actions: list[Mapping], n_slots: int) -> tuple[list[int], list[list[str]]]:
+def assign_slots(actions: Sequence[ActionResult], n_slots: int) -> tuple[list[int], list[list[str]]]:
     """Slot index (0-based) of every action and the objects of every slot (rules in module doc)."""
     n_slots = max(1, int(n_slots))
     slot_of_obj: dict[str, int] = {}
     objects: list[list[str]] = [[] for _ in range(n_slots)]
     man_slot: list[Optional[int]] = []
     for a in actions:
-        if _kind(a) in MANIPULATION_KINDS and _obj(a) is not None:
-            o = str(_obj(a))
+        if a.action.kind in MANIPULATION_KINDS and a.action.obj is not None:
+            o = str(a.action.obj)
             if o not in slot_of_obj:
                 k = min(len(slot_of_obj), n_slots - 1)
                 slot_of_obj[o] = k
@@ -210,83 +175,94 @@ def assign_slots(actions: list[Mapping], n_slots: int) -> tuple[list[int], list[
     return out, objects
 
 
-def _location(obj: str, command: Mapping, scene: Mapping) -> Optional[str]:
-    fl = command.get("final_locations") or {}
-    if obj in fl:
-        return fl[obj]
+def _location(obj: str, command: CommandRecord, scene: Mapping) -> Optional[str]:
+    """Where ``obj`` is after the command: ``final_locations`` (objects picked up in it), else its
+    last successful place in the command, else where the scene had it."""
+    if obj in command.final_locations:
+        return command.final_locations[obj]
     loc = None
-    for a in command["actions"]:
-        if _obj(a) == obj and a.get("success"):
-            k = _kind(a)
-            loc = a["action"].get("furniture") if k == "place" else "held" if k == "pickup" else loc
+    for a in command.actions:
+        if a.action.obj == obj and a.success:
+            k = a.action.kind
+            loc = a.action.furniture if k == "place" else "held" if k == "pickup" else loc
     if loc is not None:
         return loc
     return scene.get("furniture", {}).get(obj)
 
 
-def fulfilled(obj: str, command: Mapping, scene: Mapping) -> bool:
+def fulfilled(obj: str, command: CommandRecord, scene: Mapping) -> bool:
     """sr_obj of one object: right category (scene graph) and ended on a target furniture."""
-    goal = command["goal"]
     cat = scene.get("category", {}).get(obj)
-    return cat in set(goal["categories"]) and _location(obj, command, scene) in set(goal["target_furniture"])
+    return cat in set(command.goal.categories) and _location(obj, command, scene) in set(command.goal.target_furniture)
 
 
-def mission_rows(rec: Mapping, scene: Mapping, g: Gammas) -> tuple[list[dict], list[dict], dict]:
-    """(per_object rows, per_command rows, per_mission row) of one MissionRecord.
+class MissionRows:
+    """The metric rows of one mission, built command by command (``add``), so the missions stage can
+    log each command's rows when it ends and the aggregate stage gets the same numbers.
 
     scene: {"category": {obj: cat}, "furniture": {obj: furniture}} (``load_scene_categories``).
     """
-    planner, sid, mid = str(rec["planner"]), str(rec["scene_id"]), str(rec["mission_id"])
-    objs_rows: list[dict] = []
-    cmd_rows: list[dict] = []
-    idx = 0
-    cum = 0.0
-    for ci, c in enumerate(rec["commands"]):
-        n = max(1, int(c["goal"]["n_objects"]))
-        actions = list(c["actions"])
+
+    def __init__(self, planner: str, scene_id: str, mission_id: str, scene: Mapping, g: Gammas) -> None:
+        self.planner, self.scene_id, self.mission_id, self.scene, self.g = planner, scene_id, mission_id, scene, g
+        self.objects: list[dict] = []
+        self.commands: list[dict] = []
+        self._cum = 0.0
+
+    def add(self, c: CommandRecord) -> tuple[list[dict], dict]:
+        """The per-object rows and the per-command row of the next command of the mission."""
+        ci = len(self.commands)
+        n = max(1, int(c.goal.n_objects))
+        actions = list(c.actions)
         slot_of, slot_objs = assign_slots(actions, n)
         rows = []
         for k in range(n):
             mine = [a for a, s in zip(actions, slot_of, strict=True) if s == k]
-            nav = [a for a in mine if _kind(a) == "navigate"]
-            man = [a for a in mine if _kind(a) in MANIPULATION_KINDS]
-            cc = float(sum(int(a.get("collisions", 0)) for a in nav))
-            d = float(sum(float(a.get("distance", 0.0)) for a in nav))
-            t_nav = float(sum(float(a["time"]) for a in nav))
-            t_man = float(sum(float(a["time"]) for a in man))
-            sr_man = (sum(float(a.get("success_rate", 0.0)) for a in man) / len(man)) if man else 0.0
-            sr_obj = 1.0 if any(fulfilled(o, c, scene) for o in slot_objs[k]) else 0.0
-            m = m_overall(cc, t_nav + t_man, d, sr_man, sr_obj, g)
-            idx += 1
-            cum += m
+            nav = [a for a in mine if a.action.kind == "navigate"]
+            man = [a for a in mine if a.action.kind in MANIPULATION_KINDS]
+            cc = float(sum(int(a.collisions) for a in nav))
+            d = float(sum(float(a.distance) for a in nav))
+            t_nav = float(sum(float(a.time) for a in nav))
+            t_man = float(sum(float(a.time) for a in man))
+            sr_man = (sum(float(a.success_rate) for a in man) / len(man)) if man else 0.0
+            sr_obj = 1.0 if any(fulfilled(o, c, self.scene) for o in slot_objs[k]) else 0.0
+            m = m_overall(cc, t_nav + t_man, d, sr_man, sr_obj, self.g)
+            self._cum += m
             rows.append({
-                "planner": planner, "scene": sid, "mission": mid, "command_index": ci + 1,
-                "command": str(c["command_id"]), "slot": k + 1, "object_index": idx,
-                "object": "+".join(slot_objs[k]),
-                "category": "+".join(str(scene.get("category", {}).get(o)) for o in slot_objs[k]),
+                "planner": self.planner, "scene": self.scene_id, "mission": self.mission_id,
+                "command_index": ci + 1, "command": c.command_id, "slot": k + 1,
+                "object_index": len(self.objects) + len(rows) + 1, "object": "+".join(slot_objs[k]),
+                "category": "+".join(str(self.scene.get("category", {}).get(o)) for o in slot_objs[k]),
                 "filled": int(bool(slot_objs[k])), "n_actions": len(mine), "cc": cc, "d": d,
                 "t_nav": t_nav, "t_man": t_man, "t_exe": t_nav + t_man, "sr_man": sr_man,
-                "sr_obj": sr_obj, "m_overall": m, "m_overall_cum": cum})
-        objs_rows.extend(rows)
-        summ = c.get("summary") or {}
-        cmd_rows.append({
-            "planner": planner, "scene": sid, "mission": mid, "command_index": ci + 1,
-            "command": str(c["command_id"]), "n_objects": n,
-            "n_filled": sum(r["filled"] for r in rows), "n_fulfilled": int(sum(r["sr_obj"] for r in rows)),
-            **_sums(rows),
-            "llm_calls": int(summ.get("llm_calls", 0)), "llm_tokens_in": int(summ.get("llm_tokens_in", 0)),
-            "llm_tokens_out": int(summ.get("llm_tokens_out", 0)),
-            "regenerations": int(summ.get("regenerations", 0)), "replans": int(summ.get("replans", 0)),
-            "dropped_candidates": int(summ.get("dropped_candidates", 0))})
-    mission = {
-        "planner": planner, "scene": sid, "mission": mid, "n_commands": len(cmd_rows),
-        "n_objects": len(objs_rows), "n_fulfilled": int(sum(r["sr_obj"] for r in objs_rows)),
-        **_sums(objs_rows),
-        "llm_calls": sum(r["llm_calls"] for r in cmd_rows),
-        "llm_tokens_in": sum(r["llm_tokens_in"] for r in cmd_rows),
-        "llm_tokens_out": sum(r["llm_tokens_out"] for r in cmd_rows),
-        "sim_time": float(rec.get("sim_time", 0.0))}
-    return objs_rows, cmd_rows, mission
+                "sr_obj": sr_obj, "m_overall": m, "m_overall_cum": self._cum})
+        self.objects.extend(rows)
+        s = c.summary
+        row = {"planner": self.planner, "scene": self.scene_id, "mission": self.mission_id,
+               "command_index": ci + 1, "command": c.command_id, "n_objects": n,
+               "n_filled": sum(r["filled"] for r in rows), "n_fulfilled": int(sum(r["sr_obj"] for r in rows)),
+               **_sums(rows), "llm_calls": int(s.llm_calls), "llm_tokens_in": int(s.llm_tokens_in),
+               "llm_tokens_out": int(s.llm_tokens_out), "regenerations": int(s.regenerations),
+               "replans": int(s.replans), "dropped_candidates": int(s.dropped_candidates)}
+        self.commands.append(row)
+        return rows, row
+
+    def mission_row(self, sim_time: float) -> dict:
+        return {"planner": self.planner, "scene": self.scene_id, "mission": self.mission_id,
+                "n_commands": len(self.commands), "n_objects": len(self.objects),
+                "n_fulfilled": int(sum(r["sr_obj"] for r in self.objects)), **_sums(self.objects),
+                "llm_calls": sum(r["llm_calls"] for r in self.commands),
+                "llm_tokens_in": sum(r["llm_tokens_in"] for r in self.commands),
+                "llm_tokens_out": sum(r["llm_tokens_out"] for r in self.commands),
+                "sim_time": float(sim_time)}
+
+
+def mission_rows(rec: MissionRecord, scene: Mapping, g: Gammas) -> tuple[list[dict], list[dict], dict]:
+    """(per_object rows, per_command rows, per_mission row) of one MissionRecord."""
+    rows = MissionRows(rec.planner, rec.scene_id, rec.mission_id, scene, g)
+    for c in rec.commands:
+        rows.add(c)
+    return rows.objects, rows.commands, rows.mission_row(rec.sim_time)
 
 
 def _sums(rows: list[dict]) -> dict:
@@ -302,9 +278,9 @@ def compute_tables(records: Iterable[Mapping], scenes: Mapping[str, Mapping], g:
     (planner, scene, mission, ...)."""
     po, pc, pm = [], [], []
     for rec in records:
-        sid = str(rec["scene_id"])
+        sid = rec.scene_id
         if sid not in scenes:
-            raise MetricsInputError(f"run {rec.get('_path', rec['mission_id'])}: scene '{sid}' has no "
+            raise MetricsInputError(f"run {rec.planner}/{sid}/{rec.mission_id}: scene '{sid}' has no "
                                     f"scene.json among {sorted(scenes)}")
         a, b, c = mission_rows(rec, scenes[sid], g)
         po += a
@@ -396,9 +372,6 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     object_index for each metric), ``semantic_accuracy.csv`` and ``semantic_inferences.csv``.
     Returns the metrics.json dict.
     """
-    from interllm.io import write_json
-    from interllm.metrics import stats
-
     g = Gammas.from_config(cfg)
     mc = cfg.metrics
     B, ci, seed = int(mc.bootstrap_samples), float(mc.ci), int(mc.seed)
@@ -409,7 +382,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     if not records:
         raise MetricsInputError(f"no MissionRecord (<planner>/<scene>/<mission>.json) under {runs_dir}; "
                                 f"run the 'missions' stage first")
-    scenes = load_scene_categories(scenes_dir, (str(r["scene_id"]) for r in records))
+    scenes = load_scene_categories(scenes_dir, (r.scene_id for r in records))
     t = compute_tables(records, scenes, g)
     po, pc, pm = t["per_object"], t["per_command"], t["per_mission"]
 

@@ -13,16 +13,18 @@ from typing import Optional
 
 import numpy as np
 
+from interllm.planning.similarity import path_overlap
+
 PLANNER_LABELS = {"inter_llm": "Inter-LLM (ours)", "sayplan": "SayPlan", "moma_llm": "MoMa-LLM"}
 PLANNER_COLORS = {"inter_llm": "tab:green", "sayplan": "tab:red", "moma_llm": "tab:blue"}
 DPI = 100
 
 
 def _plt():
-    import matplotlib
+    import matplotlib  # lazy: heavy, only when a figure is drawn
 
     matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # lazy: heavy, only when a figure is drawn
 
     return plt
 
@@ -114,10 +116,6 @@ def synthetic_path_pairs() -> list[tuple[str, np.ndarray, np.ndarray]]:
 def path_similarity_figure(path: str | os.PathLike, eps: float = 1.0) -> tuple[Optional[Path], str]:
     """The paper's path-similarity illustration with P° from
     ``interllm.planning.similarity.path_overlap``. Returns (png or None, note)."""
-    try:
-        from interllm.planning.similarity import path_overlap
-    except ImportError as e:  # written by another helper; the report notes its absence
-        return None, f"path-similarity figure skipped: interllm.planning.similarity unavailable ({e})"
     plt = _plt()
     pairs = synthetic_path_pairs()
     fig, axes = plt.subplots(1, len(pairs), figsize=(10.5, 3.0), sharey=True)

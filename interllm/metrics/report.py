@@ -23,6 +23,7 @@ from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, read_json
 from interllm.metrics import plots
 from interllm.metrics.compute import read_csv
+from interllm.record.figures import mission_trajectories_figure
 
 # Paper Table III ("Comprehensive metric results of algorithm comparison", Yang et al.,
 # "Interleaved LLM and Motion Planning for Generalized Multi-Object Collection in Large Scene
@@ -352,8 +353,6 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
             doc.img(p, f"scene {sid} (top-down)")
     else:
         doc.p(f"No topdown.png under {scenes_dir} for scenes {scenes}.")
-    from interllm.record.figures import mission_trajectories_figure
-
     doc.h(2, "Trajectories")
     shown = 0
     for sid in scenes:

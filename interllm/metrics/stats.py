@@ -13,8 +13,9 @@ from typing import Optional
 
 import numpy as np
 
-from interllm.core.actions import Action
+from interllm.core.records import MissionRecord
 from interllm.core.seeding import bootstrap_seed
+from interllm.planning.costs import encode_cost
 
 CLASSES = ("easy", "medium", "hard")
 
@@ -139,42 +140,30 @@ def fulfilment_counts(per_object: Iterable[Mapping]) -> dict[str, dict]:
 
 
 # ---- semantic similarity accuracy (Table II) ---------------------------------------------------
-def cost_class(cost: float) -> str:
-    """f_en of a manipulation cost: hard > 15, 5 ≤ medium ≤ 15, easy < 5 (DESIGN.md)."""
-    if cost > 15.0:
-        return "hard"
-    if cost >= 5.0:
-        return "medium"
-    return "easy"
-
-
 def _norm(s: str) -> str:
     return "".join(str(s).split())
 
 
-def inference_rows(rec: Mapping, temperature: Optional[float]) -> list[dict]:
+def inference_rows(rec: MissionRecord, temperature: Optional[float]) -> list[dict]:
     """One row per cost inference of a MissionRecord, joined with the first execution of the same
     action string at or after the inferring command (its actions, then later commands').
 
     Rows: planner, scene, mission, temperature, command_index, action, predicted, estimate,
     matched (0/1), actual_cost, truth (f_en of the actual cost), correct (0/1; an 'unknown'
     prediction is never correct)."""
-    cmds = list(rec["commands"])
-    executed: list[list[tuple[str, float]]] = [
-        [(_norm(str(Action.from_dict(a["action"]))), float(a.get("cost", 0.0))) for a in c["actions"]]
-        for c in cmds]
+    executed: list[list[tuple[str, float]]] = [[(_norm(str(a.action)), float(a.cost)) for a in c.actions]
+                                               for c in rec.commands]
     out = []
-    for ci, c in enumerate(cmds):
-        for inf in (c.get("summary") or {}).get("cost_inferences", []) or []:
-            act = _norm(inf.get("action", ""))
-            pred = str(inf.get("predicted", "unknown")).lower()
+    for ci, c in enumerate(rec.commands):
+        for inf in c.summary.cost_inferences:
+            act = _norm(inf.action)
+            pred = inf.predicted.lower()
             hit = next((cost for later in executed[ci:] for s, cost in later if s == act), None)
-            truth = cost_class(hit) if hit is not None else ""
-            out.append({"planner": str(rec["planner"]), "scene": str(rec["scene_id"]),
-                        "mission": str(rec["mission_id"]),
+            truth = encode_cost(hit) if hit is not None else ""
+            out.append({"planner": rec.planner, "scene": rec.scene_id, "mission": rec.mission_id,
                         "temperature": "" if temperature is None else float(temperature),
-                        "command_index": ci + 1, "action": str(inf.get("action", "")), "predicted": pred,
-                        "estimate": float(inf.get("estimate", 0.0)), "matched": int(hit is not None),
+                        "command_index": ci + 1, "action": inf.action, "predicted": pred,
+                        "estimate": float(inf.estimate), "matched": int(hit is not None),
                         "actual_cost": "" if hit is None else hit, "truth": truth,
                         "correct": int(hit is not None and pred == truth)})
     return out

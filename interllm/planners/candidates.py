@@ -1,18 +1,17 @@
 """Initial plan candidates: M per command, from the initial scene and the mission's start state.
 
-Generated once (the ``candidates`` stage) and given to every planner, so all three start from
-the same plans (the paper's fair comparison). Seeds derive from (llm.seed, "candidates", mission
-id, command id), never from the planner.
+Made once (the ``candidates`` stage) and given to every planner, so all three start from the same
+plans (the paper's fair comparison). Seeds derive from (llm.seed, "candidates", mission id,
+command id), never from the planner.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 from interllm.config import ExperimentConfig
 from interllm.core.actions import Plan, State, plan_from_list, plan_to_list
 from interllm.core.seeding import planning_seed
-from interllm.planning import proposals as P
+from interllm.llm.types import LLMClientProtocol
+from interllm.planning.proposers import Exclusions, make_proposer
 from interllm.scene.graph import Mission, SceneGraph
 
 
@@ -23,21 +22,17 @@ def start_state(scene: SceneGraph, mission: Mission) -> State:
     return State(mission.start_furniture, scene.furniture[mission.start_furniture].room, None)
 
 
-def generate_initial_candidates(scene: SceneGraph, mission: Mission, client: Any,
+def generate_initial_candidates(scene: SceneGraph, mission: Mission, client: LLMClientProtocol,
                                 cfg: ExperimentConfig) -> dict:
-    """{command_id: [plan as list of action dicts, ...] (M each)} — JSON-able."""
+    """{command_id: [plan as list of action dicts, ...] (``planner.M`` each)} — JSON-able; the plans
+    come from the proposer of ``llm.proposal_mode`` over ``client``."""
+    proposer, M, seed_base = make_proposer(client, cfg.llm).plans, cfg.planner.M, cfg.llm.seed
     state = start_state(scene, mission)
     out: dict[str, list[list[dict]]] = {}
-    M = cfg.planner.M
     for cmd in mission.commands:
-        ctx = (("stage", "candidates"), ("scene", scene.id), ("mission", mission.id), ("command", cmd.id))
-        n = int(cmd.goal.n_objects)
-        if cfg.llm.proposal_mode == "generate":
-            plans = P.generate_plans(client, scene, state, cmd, cfg, M, n, None, ctx)
-        else:
-            scores = P.score_command(client, scene, cmd, cfg, None, ctx)
-            plans = P.propose_by_scores(scores, scene, state, n, M, cfg.llm.temperature,
-                                        planning_seed(cfg.llm.seed, "candidates", mission.id, cmd.id))
+        labels = (("stage", "candidates"), ("scene", scene.id), ("mission", mission.id), ("command", cmd.id))
+        plans = proposer.propose(scene, state, cmd, M, int(cmd.goal.n_objects), known=None, exclude=Exclusions(),
+                                 seed=planning_seed(seed_base, "candidates", mission.id, cmd.id), context=labels)
         out[cmd.id] = [plan_to_list(p) for p in plans]
     return out
 

@@ -17,10 +17,14 @@ Per command:
 
 from __future__ import annotations
 
+import numpy as np
+
 from interllm.core.actions import Plan, State, apply_effects, plan_to_list
-from interllm.planners.base import CommandResult
-from interllm.planners.context import PlannerContext, finish, new_result, robot_xy
-from interllm.planning import proposals as P
+from interllm.core.records import CostInference
+from interllm.planners.base import PLANNERS, CommandResult
+from interllm.planners.context import PlannerContext
+from interllm.planners.execution import execute_plan, finish, new_result
+from interllm.planners.repair import check_and_repair
 from interllm.planning.costs import (
     CostEstimate,
     PlanEstimate,
@@ -29,9 +33,15 @@ from interllm.planning.costs import (
     estimate_navigation,
     plan_total,
 )
+from interllm.planning.proposers import Exclusions
 from interllm.scene.graph import Command
 
 
+def robot_xy(world) -> np.ndarray:
+    return np.asarray(world.robot_pose, dtype=float).reshape(-1)[:2]
+
+
+@PLANNERS.register("inter_llm", label="Inter-LLM")
 class InterLLMPlanner:
     name = "inter_llm"
 
@@ -42,14 +52,10 @@ class InterLLMPlanner:
     def propose(self, command: Command, ctx: PlannerContext) -> list[Plan]:
         if self._n_commands == 0 and ctx.candidates_for(command):
             return ctx.candidates_for(command)
-        cfg, world = ctx.cfg, ctx.world
-        n = ctx.n_objects(command)
-        if cfg.llm.proposal_mode == "generate":
-            return P.generate_plans(ctx.client, world.scene, world.state, command, cfg, cfg.planner.M, n,
-                                    ctx.memory, ctx.labels(command))
-        scores = ctx.scores(command, ctx.memory)
-        return P.propose_by_scores(scores, world.scene, world.state, n, cfg.planner.M, cfg.llm.temperature,
-                                   ctx.seed("propose", command.id), sorted(ctx.delivered))
+        world = ctx.world
+        return ctx.proposer.plans.propose(world.scene, world.state, command, ctx.cfg.M, ctx.n_objects(command),
+                                          known=ctx.memory, exclude=Exclusions(tuple(sorted(ctx.delivered))),
+                                          seed=ctx.seed("propose", command.id), context=ctx.labels(command))
 
     # ---- estimation ---------------------------------------------------------------------
     def estimate(self, plan: Plan, command: Command, ctx: PlannerContext, paths: dict, labels: dict,
@@ -65,8 +71,7 @@ class InterLLMPlanner:
                 if key not in paths:
                     start = robot_xy(world) if prev is None else world.anchor(prev)
                     paths[key] = world.presumed_path(start, a.furniture)
-                est, src = estimate_navigation(paths[key], mem, cfg.planner.epsilon_d,
-                                               cfg.planner.nav_estimate, cfg.sim.base_speed)
+                est, src = estimate_navigation(paths[key], mem, cfg.epsilon_d, cfg.nav_estimate, ctx.base_speed)
                 nav.append(CostEstimate(str(a), "navigate", est, src))
                 prev = a.furniture
                 state = apply_effects(a, state, world.scene.furniture_rooms)
@@ -77,11 +82,10 @@ class InterLLMPlanner:
             else:
                 lk = (str(a), state.describe())
                 if lk not in labels:
-                    labels[lk] = P.infer_manipulation_cost(ctx.client, a, world.scene, mem, cfg,
-                                                           (ctx.mission.id, command.id, len(mem)),
-                                                           ctx.labels(command))
-                    result.cost_inferences.append({"action": str(a), "predicted": labels[lk],
-                                                   "estimate": decode_cost(labels[lk])})
+                    labels[lk] = ctx.proposer.costs.infer(a, world.scene, mem,
+                                                          seed_parts=(ctx.mission.id, command.id, len(mem)),
+                                                          context=ctx.labels(command))
+                    result.cost_inferences.append(CostInference(str(a), labels[lk], decode_cost(labels[lk])))
                 lab = labels[lk]
                 man.append(CostEstimate(str(a), a.kind, decode_cost(lab), "llm", lab, lab != "unknown"))
             if prev is None:
@@ -92,7 +96,7 @@ class InterLLMPlanner:
 
     # ---- one command --------------------------------------------------------------------
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
-        ctx.client.reset()
+        ctx.start_command()
         result = new_result(command)
         proposed = self.propose(command, ctx)
         self._n_commands += 1
@@ -101,8 +105,7 @@ class InterLLMPlanner:
                                                    else "reproposed"})
         feasible: list[Plan] = []
         for j, plan in enumerate(proposed):
-            ok = ctx.check_and_repair(command, plan, j, ctx.cfg.planner.max_regenerations, result,
-                                      known=ctx.memory)
+            ok = check_and_repair(ctx, command, plan, j, ctx.cfg.max_regenerations, result, known=ctx.memory)
             if ok is not None:
                 feasible.append(ok)
         result.candidates = feasible
@@ -118,5 +121,5 @@ class InterLLMPlanner:
         result.selected_plan = feasible[best]
         ctx.event("/planner/selected", command, {"index": best, "plan": plan_to_list(feasible[best]),
                                                  "estimate": estimates[best].total})
-        ctx.execute_plan(command, feasible[best], result)
+        execute_plan(ctx, command, feasible[best], result)
         return finish(ctx, result)

@@ -1,54 +1,51 @@
-"""Run one planner over one mission: a fresh World and a fresh KnownCosts per mission; the memory
-persists across the commands of the mission. Returns the JSON-able MissionRecord."""
+"""Run one planner over one mission: a fresh KnownCosts per mission that persists across its
+commands; the world is reset to the mission's start. Returns the typed MissionRecord."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Optional
 
 from interllm.config import ExperimentConfig
-from interllm.planners.base import get
+from interllm.core.records import CommandRecord, GoalRecord, MissionRecord
+from interllm.planners.base import PLANNERS
 from interllm.planners.candidates import candidates_from_json
 from interllm.planners.context import PlannerContext
+from interllm.planners.world_view import WorldView
 from interllm.planning.memory import KnownCosts
+from interllm.planning.proposers import make_proposer
 from interllm.record.api import NullRecorder
-from interllm.scene.graph import Mission, SceneGraph
+from interllm.scene.graph import Mission
+
+CommandHook = Callable[[MissionRecord, float], None]
 
 
-def make_world(scene: SceneGraph, cfg: ExperimentConfig):
-    from interllm.sim.world import World
+def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_candidates: dict, client: Any,
+                cfg: ExperimentConfig, recorder: Any = None,
+                on_command_end: Optional[CommandHook] = None) -> MissionRecord:
+    """One planner on one mission in ``world`` (reset to the mission's start first).
 
-    return World(scene, cfg.sim, cfg.scene.grid_resolution)
-
-
-def run_mission(planner_name: str, scene: SceneGraph, mission: Mission, initial_candidates: dict,
-                client: Any, cfg: ExperimentConfig, recorder: Any = None, world: Optional[Any] = None) -> dict:
-    """MissionRecord: {"planner", "scene_id", "mission_id", "commands": [...], "sim_time"}.
-
-    ``initial_candidates``: {command_id: [plan list, ...]} from ``generate_initial_candidates``.
-    ``world``: an already built world (tests); default a fresh ``interllm.sim.world.World``.
+    initial_candidates: {command_id: [plan list, ...]} from ``generate_initial_candidates``;
+    client: the LLM client (its calls get the run's labels and are tallied per command);
+    on_command_end(record so far, simulated time [s]): called after each command (the missions
+    stage logs the command's metric rows with it).
     """
-    if mission.scene_id != scene.id:
-        raise ValueError(f"mission {mission.id!r} belongs to scene {mission.scene_id!r}, not {scene.id!r}")
+    planner = PLANNERS.get(planner_name)()
     missing = [c.id for c in mission.commands if c.id not in initial_candidates]
     if missing:
         raise ValueError(f"initial candidates lack command(s) {missing} of mission {mission.id!r}; "
                          f"rerun the candidates stage for this mission")
-    planner = get(planner_name)()
     recorder = recorder if recorder is not None else NullRecorder()
-    world = world if world is not None else make_world(scene, cfg)
     world.reset(mission)
-    labels = {"planner": planner_name, "scene": scene.id, "mission": mission.id}
-    if hasattr(client, "with_context"):
-        client = client.with_context(**labels)
-    ctx = PlannerContext(world=world, client=client, memory=KnownCosts(), recorder=recorder, cfg=cfg,
-                         mission=mission, planner=planner_name,
-                         initial_candidates=candidates_from_json(initial_candidates))
-    from interllm.metrics.compute import Gammas, mission_rows
-
-    gammas = Gammas.from_config(cfg)
-    scene_map = {"category": {o.id: o.category for o in scene.objects.values()},
-                 "furniture": {o.id: o.furniture for o in scene.objects.values()}}
-    commands = []
+    if mission.scene_id != world.scene.id:
+        raise ValueError(f"mission {mission.id!r} belongs to scene {mission.scene_id!r}, not {world.scene.id!r}")
+    ctx = PlannerContext(world=world, proposer=None, memory=KnownCosts(), recorder=recorder,  # type: ignore[arg-type]
+                         cfg=cfg.planner, mission=mission, planner=planner_name, seed_base=cfg.llm.seed,
+                         base_speed=cfg.sim.base_speed, initial_candidates=candidates_from_json(initial_candidates))
+    observed = client.with_context(planner=planner_name, scene=world.scene.id, mission=mission.id) \
+        .with_observer(ctx.on_llm_call)
+    ctx.proposer = make_proposer(observed, cfg.llm)
+    record = MissionRecord(planner=planner_name, scene_id=world.scene.id, mission_id=mission.id)
     for cmd in mission.commands:
         recorder.log(float(world.clock), "info", f"{planner_name}: command {cmd.id}: {cmd.text}")
         ctx.command_delivered = []
@@ -60,21 +57,9 @@ def run_mission(planner_name: str, scene: SceneGraph, mission: Mission, initial_
         final = {o: ("held" if world.state.holding == o else world.scene.objects[o].furniture) for o in picked}
         # objects placed by the plan (not put back after a failure) are not taken again later
         ctx.delivered.update(o for o in ctx.command_delivered if o)
-        commands.append({
-            "command_id": cmd.id, "text": cmd.text,
-            "goal": {"categories": list(cmd.goal.categories),
-                     "target_furniture": list(cmd.goal.target_furniture),
-                     "n_objects": int(cmd.goal.n_objects)},
-            "summary": res.summary(),
-            "actions": [r.to_record() for r in res.actions],
-            "final_locations": final,
-        })
-        # the aggregate stage's per-object rows of this command, as they stand when it ends
-        rows, cmd_rows, _ = mission_rows({"planner": planner_name, "scene_id": scene.id, "mission_id": mission.id,
-                                          "commands": commands}, scene_map, gammas)
-        for row in rows:
-            if row["command_index"] == len(commands):
-                recorder.event("/metrics/object", float(world.clock), row)
-        recorder.event("/metrics/command", float(world.clock), cmd_rows[-1])
-    return {"planner": planner_name, "scene_id": scene.id, "mission_id": mission.id, "commands": commands,
-            "sim_time": float(world.clock)}
+        goal = GoalRecord(tuple(cmd.goal.categories), tuple(cmd.goal.target_furniture), int(cmd.goal.n_objects))
+        record.commands.append(CommandRecord(cmd.id, cmd.text, goal, res.summary(), list(res.actions), final))
+        if on_command_end is not None:
+            on_command_end(record, float(world.clock))
+    record.sim_time = float(world.clock)
+    return record

@@ -10,16 +10,19 @@ failure (the failed object's remaining actions are skipped, as for every planner
 from __future__ import annotations
 
 from interllm.core.actions import plan_to_list
-from interllm.planners.base import CommandResult
-from interllm.planners.context import PlannerContext, finish, new_result
+from interllm.planners.base import PLANNERS, CommandResult
+from interllm.planners.context import PlannerContext
+from interllm.planners.execution import execute_plan, finish, new_result
+from interllm.planners.repair import first_feasible
 from interllm.scene.graph import Command
 
 
+@PLANNERS.register("sayplan", label="SayPlan")
 class SayPlanPlanner:
     name = "sayplan"
 
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
-        ctx.client.reset()
+        ctx.start_command()
         result = new_result(command)
         proposed = ctx.candidates_for(command)
         ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
@@ -27,10 +30,10 @@ class SayPlanPlanner:
         if not proposed:
             result.notes.append(f"no initial candidates for command {command.id!r}")
             return finish(ctx, result)
-        selected = ctx.first_feasible(command, proposed, ctx.cfg.planner.sayplan_max_iterations, result)
+        selected = first_feasible(ctx, command, proposed, ctx.cfg.sayplan_max_iterations, result)
         if selected is None:
             result.notes.append("no feasible candidate: nothing executed for this command")
             return finish(ctx, result)
         result.selected_plan = selected
-        ctx.execute_plan(command, selected, result)
+        execute_plan(ctx, command, selected, result)
         return finish(ctx, result)

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from interllm.record.reader import RunLog, read_run
+from interllm.scene.render import render_topdown
 
 PLANNER_COLORS = {"inter_llm": "#d62828", "sayplan": "#1f5fbf", "moma_llm": "#f77f00"}
 _FALLBACK = ("#8338ec", "#fb8500", "#3a86ff", "#6a994e")
@@ -19,8 +20,6 @@ def mission_trajectories_figure(runs: Mapping[str, str | os.PathLike | RunLog], 
 
     runs: {planner: run .mcap path or RunLog}; all must be of the same scene.
     """
-    from interllm.scene.render import render_topdown
-
     logs = {k: v if isinstance(v, RunLog) else read_run(v) for k, v in runs.items()}
     if not logs:
         raise ValueError("no runs to draw; pass {planner: run.mcap}")

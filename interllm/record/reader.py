@@ -36,7 +36,8 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 
 from interllm.core.results import ActionResult, Trajectory
 from interllm.errors import MissingInputError, UserError
-from interllm.record.mcap_writer import (
+from interllm.record.foxglove import OCCUPIED
+from interllm.record.topics import (
     ACTIONS_TOPIC,
     DRIVEN_TOPIC,
     GRID_PREFIX,
@@ -45,7 +46,6 @@ from interllm.record.mcap_writer import (
     LOG_TOPIC,
     OBJECT_EVENTS_TOPIC,
     OBJECTS_TOPIC,
-    OCCUPIED,
     PRESUMED_TOPIC,
     SCENE_TOPIC,
     TF_TOPIC,

@@ -32,6 +32,7 @@ import argparse
 import json
 import os
 import sys
+import time
 import uuid
 from collections.abc import Sequence
 from pathlib import Path
@@ -40,7 +41,7 @@ import numpy as np
 
 from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
 from interllm.errors import MissingInputError, UserError
-from interllm.record.mcap_writer import scene_boxes
+from interllm.record.foxglove import scene_boxes
 from interllm.record.reader import RunLog, read_run
 
 TIMELINE = "sim_time"
@@ -74,7 +75,7 @@ def _has_display() -> bool:
 
 def blueprint():
     """3D view, top-down 2D view, text log and time-series cost plots."""
-    import rerun.blueprint as rrb
+    import rerun.blueprint as rrb  # lazy: rerun loads only for a replay
 
     return rrb.Blueprint(
         rrb.Horizontal(
@@ -111,7 +112,7 @@ def _to_pixels(xy: np.ndarray, run: RunLog) -> np.ndarray:
 
 def log_run(rec, run: RunLog) -> None:
     """Log one RunLog to a rerun RecordingStream."""
-    import rerun as rr
+    import rerun as rr  # lazy: rerun loads only for a replay
 
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     rec.log("run", rr.TextDocument(json.dumps(run.run, indent=1, sort_keys=True, default=str),
@@ -232,7 +233,7 @@ def _rgb(c) -> tuple[int, ...]:
 
 
 def _log_robot_visuals(rec, run: RunLog, paths: dict[str, str]) -> None:
-    import rerun as rr
+    import rerun as rr  # lazy: rerun loads only for a replay
 
     solid = rr.components.FillMode.Solid
     for v in run.robot_visuals:
@@ -255,7 +256,7 @@ def _log_robot_visuals(rec, run: RunLog, paths: dict[str, str]) -> None:
 
 def _log_objects(rec, run: RunLog, paths: dict[str, str]) -> None:
     """Objects in the world at t=0 and after every grasp / release; the held one under the grip."""
-    import rerun as rr
+    import rerun as rr  # lazy: rerun loads only for a replay
 
     objs = {o.id: {"center": tuple(o.position), "quat": (0.0, 0.0, 0.0, 1.0), "size": tuple(o.size)}
             for o in run.scene.objects.values()}  # type: ignore[union-attr]
@@ -298,7 +299,7 @@ def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool 
         each MCAP. spawn: open a native viewer; serve: start a gRPC server (returns immediately).
     Returns the ``.rrd`` files written.
     """
-    import rerun as rr
+    import rerun as rr  # lazy: rerun loads only for a replay
 
     if spawn and serve:
         raise ValueError("choose at most one of spawn and serve")
@@ -389,8 +390,6 @@ def replay_main(argv: Sequence[str] | None = None) -> int:
     if args.serve:
         print("replay: serving; press Ctrl-C to stop")
         try:
-            import time
-
             while True:
                 time.sleep(3600)
         except KeyboardInterrupt:

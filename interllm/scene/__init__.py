@@ -1,7 +1,8 @@
 """Scene subpackage: scene graph, catalog, procedural generator, missions, grid, import/export."""
 
 from interllm.scene.catalog import Catalog, CatalogError, CommandSpec, load_catalog, scene_config
-from interllm.scene.generator import SceneGenerationError, free_edges, generate_scene, unreachable
+from interllm.scene.generator import SceneGenerationError, generate_scene
+from interllm.scene.geometry import free_edges
 from interllm.scene.graph import Command, Door, Furniture, Goal, Mission, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.grid import OccupancyGrid, approach_cells, free_components, largest_component, rasterize
 from interllm.scene.importer import import_procthor
@@ -13,6 +14,7 @@ from interllm.scene.missions import (
                                      start_pose,
                                      supported_commands,
 )
+from interllm.scene.reachability import unreachable
 from interllm.scene.render import render_topdown
 from interllm.scene.schema import scene_json_schema
 from interllm.scene.validate import SceneValidationError, load_scene_file, validate_dict, validate_scene

@@ -31,8 +31,10 @@ import numpy as np
 from interllm.config import SceneConfig
 from interllm.errors import UserError
 from interllm.scene.catalog import Catalog, CommandSpec, load_catalog
+from interllm.scene.geometry import free_edges, r4, rect_gap, rects_overlap
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
-from interllm.scene.grid import approach_cells, free_components, largest_component, rasterize
+from interllm.scene.grid import rasterize
+from interllm.scene.reachability import unreachable
 
 MAX_ATTEMPTS = 25
 MAX_FAILS_IN_A_ROW = 250  # object placements failing in a row before the surfaces count as full
@@ -41,7 +43,6 @@ EXTRA_DOOR_FRACTION = 0.5  # share of the non-tree adjacencies that get a door (
 DOOR_END_MARGIN = 0.3  # [m] door opening keeps this far from the wall ends
 DOOR_ZONE_SIDE = 0.3  # [m] furniture-free zone extends this far beside the opening
 WALL_GAP = 0.01  # [m] between a wall's inner face and furniture backs
-REACH_MARGIN = 0.35  # [m] beyond the robot radius: how far the arm reaches over an edge
 
 
 class SceneGenerationError(UserError, RuntimeError):
@@ -54,11 +55,6 @@ class _Retry(Exception):
 
 class _TooFull(SceneGenerationError):
     """Not even half the objects fit: no other attempt will place them all; stop at once."""
-
-
-def r4(v: float) -> float:
-    """Round to 1e-4 (and turn -0.0 into 0.0) for byte-stable JSON."""
-    return round(float(v), 4) + 0.0
 
 
 @dataclass
@@ -80,48 +76,6 @@ class _Build:
         return f"{kind}_{self.counters[kind]}"
 
 
-# ---- geometry helpers ----------------------------------------------------------------------------
-def _rect_gap(a, b) -> float:
-    """Euclidean distance between two axis-aligned rectangles (x0, y0, x1, y1) [m]; 0 if touching."""
-    dx = max(a[0] - b[2], b[0] - a[2], 0.0)
-    dy = max(a[1] - b[3], b[1] - a[3], 0.0)
-    return math.hypot(dx, dy)
-
-
-def _overlap(a, b) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
-
-
-def free_edges(scene_or_interior, furniture: Furniture, wall_tol: float = 0.3) -> tuple[str, ...]:
-    """Sides ("S", "N", "W", "E") of a furniture footprint that face free floor, not a wall.
-
-    scene_or_interior: a SceneGraph (room bounds are used) or the room interior (x0, y0, x1, y1).
-    A side closer than ``wall_tol`` [m] to the room boundary is against the wall.
-    """
-    if isinstance(scene_or_interior, SceneGraph):
-        b = scene_or_interior.rooms[furniture.room].bounds
-    else:
-        b = scene_or_interior
-    x0, y0, x1, y1 = furniture.footprint
-    out = []
-    if y0 - b[1] > wall_tol:
-        out.append("S")
-    if b[3] - y1 > wall_tol:
-        out.append("N")
-    if x0 - b[0] > wall_tol:
-        out.append("W")
-    if b[2] - x1 > wall_tol:
-        out.append("E")
-    return tuple(out)
-
-
-def edge_distances(furniture: Furniture, x: float, y: float) -> dict[str, float]:
-    """Distance [m] from a point on the surface to each side of the footprint."""
-    x0, y0, x1, y1 = furniture.footprint
-    return {"S": y - y0, "N": y1 - y, "W": x - x0, "E": x1 - x}
-
-
-# ---- floor plan ----------------------------------------------------------------------------------
 def _floor_plan(b: _Build) -> list[tuple[str, str, str]]:
     """Rooms, doors and walls. Returns the door edges as (door id, room a, room b)."""
     cfg, rng, cat = b.cfg, b.rng, b.cat
@@ -298,9 +252,9 @@ def _try_place_furniture(b: _Build, rid: str, category: str, tries: int = 30) ->
             cx, cy = b.rng.uniform(lox, hix), b.rng.uniform(loy, hiy)
         cx, cy = r4(cx), r4(cy)
         fp = (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)
-        if any(_overlap(fp, z) for z in zones):
+        if any(rects_overlap(fp, z) for z in zones):
             continue
-        if any(_rect_gap(fp, o) < ring for o in others):
+        if any(rect_gap(fp, o) < ring for o in others):
             continue
         fid = b.new_id(category)
         b.furniture[fid] = Furniture(fid, category, rid, (cx, cy), (r4(sx), r4(sy), r4(h)), fc.description)
@@ -402,7 +356,7 @@ def _place_object(b: _Build, category: str, fid: str, mode: str, tries: int = 25
         if box[0] < fx0 + m - 1e-9 or box[2] > fx1 - m + 1e-9 or box[1] < fy0 + m - 1e-9 \
                 or box[3] > fy1 - m + 1e-9:
             continue
-        if any(_rect_gap(box, _obox(o)) < pl.object_gap - 1e-9 for o in existing):
+        if any(rect_gap(box, _obox(o)) < pl.object_gap - 1e-9 for o in existing):
             continue
         oid = b.new_id(category)
         b.objects[oid] = SceneObject(oid, category, fid, (x, y, r4(f.surface_height + oc.size[2] / 2)),
@@ -521,30 +475,6 @@ def _place_all_objects(b: _Build) -> dict[str, bool]:
         else:
             in_a_row = 0
     return {c.id: supported[c.id] for c in cat.commands}
-
-
-# ---- checks --------------------------------------------------------------------------------------
-def unreachable(scene: SceneGraph, grid, robot_radius: float) -> list[str]:
-    """Ids of rooms and furniture not reachable from the largest free region of ``grid``.
-
-    A furniture is reachable if a free cell within ``robot_radius + REACH_MARGIN`` m of its
-    footprint lies in the largest free region; a room if any of its free cells does.
-    """
-    labels, _ = free_components(grid, connectivity=4)
-    main = largest_component(labels)
-    bad = []
-    for rid in sorted(scene.rooms):
-        x0, y0, x1, y1 = scene.rooms[rid].bounds
-        lo = grid.world_to_cell((x0, y0))
-        hi = grid.world_to_cell((x1, y1))
-        sub = labels[max(lo[0], 0):hi[0] + 1, max(lo[1], 0):hi[1] + 1]
-        if main == 0 or not (sub == main).any():
-            bad.append(rid)
-    for fid in sorted(scene.furniture):
-        cells = approach_cells(grid, scene.furniture[fid].footprint, robot_radius + REACH_MARGIN)
-        if main == 0 or not len(cells) or not (labels[cells[:, 0], cells[:, 1]] == main).any():
-            bad.append(fid)
-    return bad
 
 
 def capacity(cfg: SceneConfig, cat: Catalog) -> tuple[int, int]:

@@ -63,6 +63,27 @@ class OccupancyGrid:
                             origin=np.array(self.origin), **extra)
         return buf.getvalue()
 
+    @staticmethod
+    def pair_npz_bytes(presumed: OccupancyGrid, true: OccupancyGrid, robot_radius: float) -> bytes:
+        """``grid.npz`` of the scenes stage: the presumed grid, the true grid's cells, the robot
+        radius [m] both are inflated by."""
+        return presumed.to_npz_bytes(true_occupied=true.occupied, robot_radius=np.array(float(robot_radius)))
+
+    @staticmethod
+    def load_pair(path, resolution: float, robot_radius: float) -> dict[str, OccupancyGrid]:
+        """{"presumed", "true"} from a ``grid.npz``; raises ``ValueError`` naming the fix when it was
+        made with another resolution or robot radius (the scenes stage must run again)."""
+        with np.load(path) as z:
+            res, origin = float(z["resolution"]), (float(z["origin"][0]), float(z["origin"][1]))
+            radius = float(z["robot_radius"]) if "robot_radius" in z.files else float("nan")
+            presumed = OccupancyGrid(z["occupied"].astype(bool), res, origin)
+            true = OccupancyGrid(z["true_occupied"].astype(bool), res, origin)
+        if res != float(resolution) or radius != float(robot_radius):
+            raise ValueError(f"{path} was made with grid resolution {res} m and robot radius {radius} m, not "
+                             f"scene.grid_resolution={resolution} and sim.robot_radius={robot_radius}; rerun the "
+                             f"scenes stage (dvc repro scenes)")
+        return {"presumed": presumed, "true": true}
+
 
 def _fill_box(occ: np.ndarray, origin, res, x0, y0, x1, y1, pad: float) -> None:
     c0 = int(np.floor((x0 - pad - origin[0]) / res))

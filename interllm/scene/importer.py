@@ -24,7 +24,7 @@ from typing import Any
 
 from interllm.io import InputFileError, read_json
 from interllm.scene.catalog import Catalog, load_catalog
-from interllm.scene.generator import r4
+from interllm.scene.geometry import r4
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.validate import SceneValidationError
 

@@ -20,9 +20,10 @@ from interllm.core.seeding import mission_seed
 from interllm.errors import UserError
 from interllm.io import read_json, write_json
 from interllm.scene.catalog import Catalog, load_catalog
-from interllm.scene.generator import REACH_MARGIN, r4
+from interllm.scene.geometry import r4
 from interllm.scene.graph import Command, Goal, Mission, SceneGraph
 from interllm.scene.grid import approach_cells, free_components, largest_component, rasterize
+from interllm.scene.reachability import REACH_MARGIN
 
 MISSIONS_SCHEMA_VERSION = 1
 

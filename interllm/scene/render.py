@@ -6,6 +6,7 @@ date or software metadata, so re-rendering the same scene gives the same bytes o
 
 from __future__ import annotations
 
+import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Optional
@@ -32,13 +33,11 @@ def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[Occup
     markers: (x [m], y [m], matplotlib marker, colour) drawn on top (e.g. grasps and releases).
     narrow_width: doors narrower than this [m] are drawn as narrow.
     """
-    import io
-
-    import matplotlib
+    import matplotlib  # lazy: heavy, only when a picture is drawn
 
     matplotlib.use("Agg", force=False)
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Rectangle
+    from matplotlib.figure import Figure  # lazy: heavy, only when a picture is drawn
+    from matplotlib.patches import Rectangle  # lazy: heavy, only when a picture is drawn
 
     x0, y0, x1, y1 = scene.bounds
     w, h = x1 - x0, y1 - y0

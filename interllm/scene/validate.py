@@ -18,6 +18,7 @@ from interllm.errors import UserError
 from interllm.io import InputFileError, read_json
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import rasterize
+from interllm.scene.reachability import unreachable
 from interllm.scene.schema import scene_json_schema
 
 
@@ -141,8 +142,6 @@ def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radi
                                    f"rooms are not connected by doors: {comps[0]} cannot be reached from "
                                    f"{comps[-1][:5]}; add a door between them")
     if check_reachability:
-        from interllm.scene.generator import unreachable
-
         grid = rasterize(sg, resolution, robot_radius, doors="presumed")
         bad = unreachable(sg, grid, robot_radius)
         if bad:

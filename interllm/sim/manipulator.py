@@ -21,9 +21,12 @@ For an action at a furniture:
    succeeds when any trial succeeded and is executed from the first successful pose.
 
 Pickup attaches the object to the gripper (kinematically: it keeps its pose in the gripper
-frame) and sets ``state.holding``; place puts it upright on the surface at the target spot
-(``scene.move_object``) and frees the hand. While held, the scene graph still lists the object
-on the furniture it was taken from; ``World.state.holding`` is the truth.
+frame); place puts it upright on the surface at the target spot (``scene.move_object``) and
+releases it. The high-level state (holding) changes in ``World.execute`` when the action
+succeeded. While held, the scene graph still lists the object on the furniture it was taken
+from; ``World.state.holding`` is the truth.
+
+``Manipulator`` owns the cache of the small IK models (one per furniture layout).
 """
 
 from __future__ import annotations
@@ -36,13 +39,18 @@ import mink
 import mujoco
 import numpy as np
 
+from interllm.config import SimConfig
 from interllm.core.actions import Action, State
 from interllm.core.frames import GRIP_FRAME, WORLD_FRAME, wxyz_to_xyzw, yaw_quat_wxyz
 from interllm.core.results import ActionResult, ManipulationTrial, ObjectEvent, man_cost
 from interllm.core.seeding import pose_sampling_seed
+from interllm.scene.geometry import footprint_distance
+from interllm.scene.graph import Furniture, SceneGraph
+from interllm.scene.grid import OccupancyGrid
+from interllm.sim.belief import BeliefMap
 from interllm.sim.build import build_local_spec
+from interllm.sim.physics import MujocoWorld
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK
-from interllm.sim.world import footprint_distance
 
 PRE_GRASP_HEIGHT = 0.10  # [m] above the target
 ROT_TOL = 0.1  # [rad] orientation tolerance of IK convergence
@@ -68,19 +76,15 @@ class LocalIK:
     object_geoms: dict[str, int]
 
 
-def _layout_key(world, furniture_id: str, exclude: tuple[str, ...]) -> tuple:
+def _layout_key(scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...]) -> tuple:
     objs = tuple(sorted((o.id, tuple(round(v, 6) for v in o.position), tuple(o.size))
-                        for o in world.scene.objects_on(furniture_id) if o.id not in exclude))
+                        for o in scene.objects_on(furniture_id) if o.id not in exclude))
     return (furniture_id, objs)
 
 
-def local_ik(world, furniture_id: str, exclude: tuple[str, ...] = ()) -> LocalIK:
-    """The small IK model for a furniture's current layout (cached in the world)."""
-    key = _layout_key(world, furniture_id, exclude)
-    hit = world._ik_cache.get(key)
-    if hit is not None:
-        return hit
-    spec = build_local_spec(world.scene, furniture_id, world.cfg, exclude_objects=exclude)
+def build_local_ik(scene: SceneGraph, furniture_id: str, cfg: SimConfig, exclude: tuple[str, ...] = ()) -> LocalIK:
+    """The small IK model of a furniture's current layout (fixed-base arm, the furniture, its objects)."""
+    spec = build_local_spec(scene, furniture_id, cfg, exclude_objects=exclude)
     model = spec.compile()
     names = {g: (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "") for g in range(model.ngeom)}
     ik = LocalIK(
@@ -90,9 +94,6 @@ def local_ik(world, furniture_id: str, exclude: tuple[str, ...] = ()) -> LocalIK
         furniture_geoms=[g for g, n in names.items() if n.startswith("furniture/")],
         object_geoms={n.split("/", 1)[1]: g for g, n in names.items() if n.startswith("object/")})
     assert model.nq == len(ARM_JOINTS), "the local IK model must have only the arm joints"
-    if len(world._ik_cache) > 64:
-        world._ik_cache.pop(next(iter(world._ik_cache)))
-    world._ik_cache[key] = ik
     return ik
 
 
@@ -180,11 +181,11 @@ def _contacts(ik: LocalIK, q: np.ndarray, obstacles: set[int]) -> bool:
     return False
 
 
-def sample_base_poses(world, furniture_id: str, target_xy, action: Action, n: int) -> list[tuple[float, float, float]]:
-    """N base poses (x, y, yaw) around a furniture from the belief map (module doc, step 1)."""
-    cfg = world.cfg
-    g = world.presumed_grid
-    f = world.scene.furniture[furniture_id]
+def sample_base_poses(grid: OccupancyGrid, furniture: Furniture, target_xy, action: Action, n: int,
+                      cfg: SimConfig) -> list[tuple[float, float, float]]:
+    """N base poses (x, y, yaw) around a furniture from the belief map ``grid`` (module doc, step 1)."""
+    g = grid
+    f = furniture
     x0, y0, x1, y1 = f.footprint
     pad = cfg.robot_radius + POSE_RING + 2 * g.resolution
     lo = g.world_to_cell(np.array([x0 - pad, y0 - pad]))
@@ -212,9 +213,9 @@ def sample_base_poses(world, furniture_id: str, target_xy, action: Action, n: in
     return out
 
 
-def _run_trials(world, ik: LocalIK, action: Action, poses, target: np.ndarray, inside_box, avoid: list[int]):
+def _run_trials(cfg: SimConfig, ik: LocalIK, action: Action, poses, target: np.ndarray, inside_box,
+                avoid: list[int]):
     """One trial per base pose; returns (trials, per-trial (q_pre, q_grasp) or None)."""
-    cfg = world.cfg
     trials: list[ManipulationTrial] = []
     sols: list[Optional[tuple[np.ndarray, np.ndarray]]] = []
     obstacles = set(avoid)
@@ -254,13 +255,12 @@ def _run_trials(world, ik: LocalIK, action: Action, poses, target: np.ndarray, i
     return trials, sols
 
 
-def _precondition_fail(world, action: Action, reason: str) -> ActionResult:
-    return ActionResult(action=action, success=False, cost=man_cost(0.0, 0.0, world.cfg.gamma_man), time=0.0,
+def _precondition_fail(cfg: SimConfig, action: Action, reason: str) -> ActionResult:
+    return ActionResult(action=action, success=False, cost=man_cost(0.0, 0.0, cfg.gamma_man), time=0.0,
                         success_rate=0.0, reason=f"{action}: {reason}")
 
 
-def _result(world, action: Action, trials, reason_fail: str) -> tuple[ActionResult, int]:
-    cfg = world.cfg
+def _result(cfg: SimConfig, action: Action, trials, reason_fail: str) -> tuple[ActionResult, int]:
     n = len(trials)
     succ = [i for i, t in enumerate(trials) if t.success]
     sr = len(succ) / n if n else 0.0
@@ -278,79 +278,33 @@ def _result(world, action: Action, trials, reason_fail: str) -> tuple[ActionResu
     return res, (succ[0] if ok else -1)
 
 
-def _execute_motion(world, pose, q_pre, q_grasp, t0: float, duration: float, at_grasp) -> list:
+def _execute_motion(physics: MujocoWorld, pose, q_pre, q_grasp, t0: float, duration: float, at_grasp) -> list:
     """Play tuck -> pre -> grasp -> (at_grasp) -> pre -> tuck in the world; returns samples
     spread over [t0, t0 + duration]."""
-    world.set_base(*pose)
+    physics.set_base(*pose)
     legs = [(TUCK, q_pre), (q_pre, q_grasp), (q_grasp, q_pre), (q_pre, TUCK)]
     lens = [float(np.linalg.norm(b - a)) for a, b in legs]
     total = sum(lens) or 1.0
     samples = []
     t = t0
-    world.set_arm(TUCK)
-    samples.append(world.sample(t))
+    physics.set_arm(TUCK)
+    samples.append(physics.sample(t))
     for k, ((a, b), ln) in enumerate(zip(legs, lens, strict=False)):
         steps = 6
         for i in range(1, steps + 1):
-            world.set_arm(a + (b - a) * i / steps)
+            physics.set_arm(a + (b - a) * i / steps)
             t += duration * (ln / total) / steps
-            samples.append(world.sample(t))
+            samples.append(physics.sample(t))
         if k == 1:
             at_grasp(t)
     return samples
 
 
-def execute_pickup(world, action: Action) -> ActionResult:
-    """Pick up ``action.obj`` from ``action.furniture`` (see the module doc)."""
-    scene = world.scene
-    st: State = world.state
-    if action.kind != "pickup":
-        raise ValueError(f"execute_pickup got a {action.kind!r} action: {action}")
-    if action.furniture not in scene.furniture:
-        return _precondition_fail(world, action, f"unknown furniture {action.furniture!r}")
-    if action.obj not in scene.objects:
-        return _precondition_fail(world, action, f"unknown object {action.obj!r}")
-    if st.holding is not None:
-        return _precondition_fail(world, action, f"the hand is not free (holding {st.holding})")
-    if st.at_furniture != action.furniture:
-        return _precondition_fail(world, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
-    o = scene.objects[action.obj]
-    if o.furniture != action.furniture:
-        return _precondition_fail(world, action, f"{action.obj} is on {o.furniture}, not on {action.furniture}")
-    f = scene.furniture[action.furniture]
-    target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
-    half = np.asarray(o.size, dtype=float) / 2
-    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
-    poses = sample_base_poses(world, action.furniture, target[:2], action, world.cfg.n_l)
-    if not poses:
-        return _precondition_fail(world, action, f"no free base pose next to {action.furniture} on the robot's map")
-    ik = local_ik(world, action.furniture)
-    avoid = ik.furniture_geoms + [g for oid, g in sorted(ik.object_geoms.items()) if oid != action.obj]
-    trials, sols = _run_trials(world, ik, action, poses, target, inside, avoid)
-    res, k = _result(world, action, trials, "no collision-free grasp")
-    if k < 0:
-        res.trajectory = world.make_trajectory([world.sample(world.clock), world.sample(world.clock + res.time)])
-        return res
-    q_pre, q_grasp = sols[k]  # type: ignore[misc]
-
-    def grasp(t: float):
-        world.attach(action.obj)
-        world.state = State(st.at_furniture, st.at_room, action.obj)
-        pos, quat = world.held_offset
-        res.object_events.append(ObjectEvent(t, action.obj, GRIP_FRAME, tuple(float(v) for v in pos),
-                                             wxyz_to_xyzw(quat)))
-
-    samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, grasp)
-    world.forward()
-    res.trajectory = world.make_trajectory(samples)
-    return res
-
-
-def place_spot(world, furniture_id: str, obj_size, near_xy) -> Optional[np.ndarray]:
+def place_spot(scene: SceneGraph, furniture_id: str, obj_size, near_xy, held: Optional[str]) -> Optional[np.ndarray]:
     """A free spot (x, y, z of the object's centre) [m] on a furniture's top surface, nearest to
     ``near_xy`` along the closest edge, inset so the object is fully on the surface and at
-    least PLACE_GAP from every other object; None if there is no room."""
-    f = world.scene.furniture[furniture_id]
+    least PLACE_GAP from every other object but ``held``; None if there is no room."""
+    f = scene.furniture[furniture_id]
     x0, y0, x1, y1 = f.footprint
     sx, sy, sz = (float(v) for v in obj_size)
     m = 0.03
@@ -358,7 +312,7 @@ def place_spot(world, furniture_id: str, obj_size, near_xy) -> Optional[np.ndarr
     loy, hiy = y0 + sy / 2 + m, y1 - sy / 2 - m
     if lox > hix or loy > hiy:
         return None
-    others = [o for o in world.scene.objects_on(furniture_id) if o.id != world.state.holding]
+    others = [o for o in scene.objects_on(furniture_id) if o.id != held]
     base = np.array([np.clip(near_xy[0], lox, hix), np.clip(near_xy[1], loy, hiy)])
     # candidates: growing offsets along x and y from the nearest point, ordered by distance
     offs = np.arange(-1.0, 1.0001, 0.05)
@@ -380,52 +334,118 @@ def place_spot(world, furniture_id: str, obj_size, near_xy) -> Optional[np.ndarr
     return None
 
 
-def execute_place(world, action: Action) -> ActionResult:
-    """Place the held ``action.obj`` on ``action.furniture`` (see the module doc)."""
-    scene = world.scene
-    st: State = world.state
-    if action.kind != "place":
-        raise ValueError(f"execute_place got a {action.kind!r} action: {action}")
-    if action.furniture not in scene.furniture:
-        return _precondition_fail(world, action, f"unknown furniture {action.furniture!r}")
-    if st.holding != action.obj:
-        return _precondition_fail(world, action, f"the robot is not holding {action.obj} "
-                                                 f"(holding {st.holding or 'nothing'})")
-    if st.at_furniture != action.furniture:
-        return _precondition_fail(world, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
-    o = scene.objects[action.obj]
-    f = scene.furniture[action.furniture]
-    x, y, _ = world.robot_pose
-    spot = place_spot(world, action.furniture, o.size, (x, y))
-    if spot is None:
-        return _precondition_fail(world, action, f"no free spot for {action.obj} on {action.furniture}")
-    target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
-    half = np.asarray(o.size, dtype=float) / 2
-    inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
-    poses = sample_base_poses(world, action.furniture, target[:2], action, world.cfg.n_l)
-    if not poses:
-        return _precondition_fail(world, action, f"no free base pose next to {action.furniture} on the robot's map")
-    ik = local_ik(world, action.furniture, exclude=(action.obj,))
-    avoid = ik.furniture_geoms + [g for _, g in sorted(ik.object_geoms.items())]
-    trials, sols = _run_trials(world, ik, action, poses, target, inside, avoid)
-    res, k = _result(world, action, trials, "no collision-free placing pose")
-    if k < 0:
-        res.trajectory = world.make_trajectory([world.sample(world.clock), world.sample(world.clock + res.time)])
+class Manipulator:
+    """Pickups and places by N_l IK trials (module doc); caches one IK model per furniture layout.
+
+    cfg: IK, trial and cost parameters (``SimConfig``).
+    """
+
+    MAX_CACHED = 64  # IK models kept (oldest dropped first)
+
+    def __init__(self, cfg: SimConfig) -> None:
+        self.cfg = cfg
+        self._ik: dict[tuple, LocalIK] = {}
+
+    def local_ik(self, scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...] = ()) -> LocalIK:
+        """The small IK model for a furniture's current layout (cached)."""
+        key = _layout_key(scene, furniture_id, exclude)
+        hit = self._ik.get(key)
+        if hit is not None:
+            return hit
+        ik = build_local_ik(scene, furniture_id, self.cfg, exclude)
+        if len(self._ik) > self.MAX_CACHED:
+            self._ik.pop(next(iter(self._ik)))
+        self._ik[key] = ik
+        return ik
+
+    def pickup(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
+               action: Action) -> ActionResult:
+        """Pick up ``action.obj`` from ``action.furniture`` (see the module doc), starting at ``clock`` [s]."""
+        st = state
+        cfg = self.cfg
+        if action.kind != "pickup":
+            raise ValueError(f"execute_pickup got a {action.kind!r} action: {action}")
+        if action.furniture not in scene.furniture:
+            return _precondition_fail(cfg, action, f"unknown furniture {action.furniture!r}")
+        if action.obj not in scene.objects:
+            return _precondition_fail(cfg, action, f"unknown object {action.obj!r}")
+        if st.holding is not None:
+            return _precondition_fail(cfg, action, f"the hand is not free (holding {st.holding})")
+        if st.at_furniture != action.furniture:
+            return _precondition_fail(cfg, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
+        o = scene.objects[action.obj]
+        if o.furniture != action.furniture:
+            return _precondition_fail(cfg, action, f"{action.obj} is on {o.furniture}, not on {action.furniture}")
+        f = scene.furniture[action.furniture]
+        target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
+        half = np.asarray(o.size, dtype=float) / 2
+        inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
+        poses = sample_base_poses(belief.presumed, scene.furniture[action.furniture], target[:2], action, cfg.n_l, cfg)
+        if not poses:
+            return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
+        ik = self.local_ik(scene, action.furniture)
+        avoid = ik.furniture_geoms + [g for oid, g in sorted(ik.object_geoms.items()) if oid != action.obj]
+        trials, sols = _run_trials(cfg, ik, action, poses, target, inside, avoid)
+        res, k = _result(cfg, action, trials, "no collision-free grasp")
+        if k < 0:
+            res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
+            return res
+        q_pre, q_grasp = sols[k]  # type: ignore[misc]
+
+        def grasp(t: float):
+            physics.attach(action.obj)
+            pos, quat = physics.held_offset
+            res.object_events.append(ObjectEvent(t, action.obj, GRIP_FRAME, tuple(float(v) for v in pos),
+                                                 wxyz_to_xyzw(quat)))
+
+        samples = _execute_motion(physics, poses[k], q_pre, q_grasp, clock, res.time, grasp)
+        physics.forward()
+        res.trajectory = physics.make_trajectory(samples)
         return res
-    q_pre, q_grasp = sols[k]  # type: ignore[misc]
 
-    def release(t: float):
-        world.state = State(st.at_furniture, st.at_room, None)
-        world.held_offset = None
-        pos = (float(spot[0]), float(spot[1]), float(spot[2]))
-        world.scene.move_object(action.obj, action.furniture, pos)
-        world.set_object_pose(action.obj, pos)
-        res.object_events.append(ObjectEvent(t, action.obj, WORLD_FRAME, pos, (0.0, 0.0, 0.0, 1.0)))
+    def place(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
+              action: Action) -> ActionResult:
+        """Place the held ``action.obj`` on ``action.furniture`` (see the module doc), starting at ``clock`` [s]."""
+        st = state
+        cfg = self.cfg
+        if action.kind != "place":
+            raise ValueError(f"execute_place got a {action.kind!r} action: {action}")
+        if action.furniture not in scene.furniture:
+            return _precondition_fail(cfg, action, f"unknown furniture {action.furniture!r}")
+        if st.holding != action.obj:
+            return _precondition_fail(cfg, action, f"the robot is not holding {action.obj} "
+                                                     f"(holding {st.holding or 'nothing'})")
+        if st.at_furniture != action.furniture:
+            return _precondition_fail(cfg, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
+        o = scene.objects[action.obj]
+        f = scene.furniture[action.furniture]
+        x, y, _ = physics.robot_pose
+        spot = place_spot(scene, action.furniture, o.size, (x, y), st.holding)
+        if spot is None:
+            return _precondition_fail(cfg, action, f"no free spot for {action.obj} on {action.furniture}")
+        target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
+        half = np.asarray(o.size, dtype=float) / 2
+        inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
+        poses = sample_base_poses(belief.presumed, scene.furniture[action.furniture], target[:2], action, cfg.n_l, cfg)
+        if not poses:
+            return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
+        ik = self.local_ik(scene, action.furniture, exclude=(action.obj,))
+        avoid = ik.furniture_geoms + [g for _, g in sorted(ik.object_geoms.items())]
+        trials, sols = _run_trials(cfg, ik, action, poses, target, inside, avoid)
+        res, k = _result(cfg, action, trials, "no collision-free placing pose")
+        if k < 0:
+            res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
+            return res
+        q_pre, q_grasp = sols[k]  # type: ignore[misc]
 
-    samples = _execute_motion(world, poses[k], q_pre, q_grasp, world.clock, res.time, release)
-    world.forward()
-    res.trajectory = world.make_trajectory(samples)
-    return res
+        def release(t: float):
+            physics.release()
+            pos = (float(spot[0]), float(spot[1]), float(spot[2]))
+            scene.move_object(action.obj, action.furniture, pos)
+            physics.set_object_pose(action.obj, pos)
+            res.object_events.append(ObjectEvent(t, action.obj, WORLD_FRAME, pos, (0.0, 0.0, 0.0, 1.0)))
 
-
-__all__ = ["execute_pickup", "execute_place", "local_ik", "place_spot", "sample_base_poses", "solve_ik"]
+        samples = _execute_motion(physics, poses[k], q_pre, q_grasp, clock, res.time, release)
+        physics.forward()
+        res.trajectory = physics.make_trajectory(samples)
+        return res

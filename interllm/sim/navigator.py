@@ -1,6 +1,6 @@
 """Execute ``navigate(furniture, room)`` (paper §III low-level controls, §IV-B c_nav).
 
-The robot plans a shortest path on its belief map (``World.presumed_grid``: doors presumed open,
+The robot plans a shortest path on its belief map (``BeliefMap.presumed``: doors presumed open,
 plus cells it has learned are blocked) to the furniture's anchor and follows it with the paper's
 controls: turn by ``sim.turn`` (45°) and move forward by ``sim.step`` (5 cm). After every move
 the base pose is set in MuJoCo and the contacts of the base with walls, door leaves and
@@ -23,8 +23,12 @@ import math
 
 import numpy as np
 
-from interllm.core.actions import Action, State
+from interllm.config import SimConfig
+from interllm.core.actions import Action
 from interllm.core.results import ActionResult, nav_cost
+from interllm.scene.graph import SceneGraph
+from interllm.sim.belief import BeliefMap
+from interllm.sim.physics import MujocoWorld
 
 _EPS = 1e-9
 
@@ -63,10 +67,23 @@ def _walk_back(points: list[tuple[float, float]], length: float) -> tuple[list[t
     return out, done
 
 
-def execute_navigate(world, action: Action) -> ActionResult:
-    """Drive the robot of ``world`` (a ``World``) to ``action.furniture``; see the module doc."""
-    cfg = world.cfg
-    scene = world.scene
+class Navigator:
+    """Drives the base to a furniture with the paper's controls (module doc).
+
+    cfg: robot speeds, control steps, collision recovery and γ_nav; resolution: [m] per grid cell.
+    """
+
+    def __init__(self, cfg: SimConfig, resolution: float) -> None:
+        self.cfg, self.resolution = cfg, float(resolution)
+
+    def navigate(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, clock: float,
+                 action: Action) -> ActionResult:
+        """Drive to ``action.furniture`` from the current base pose, starting at ``clock`` [s]."""
+        return _drive(self.cfg, self.resolution, physics, belief, scene, clock, action)
+
+
+def _drive(cfg: SimConfig, res: float, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, t0: float,
+           action: Action) -> ActionResult:
     if action.kind != "navigate":
         raise ValueError(f"execute_navigate got a {action.kind!r} action: {action}")
     if action.furniture not in scene.furniture:
@@ -75,10 +92,8 @@ def execute_navigate(world, action: Action) -> ActionResult:
     fur = scene.furniture[action.furniture]
     if action.room is not None and action.room != fur.room:
         return _fail(action, f"{action}: {action.furniture} is in room {fur.room}, not {action.room}")
-    goal = world.anchor(action.furniture)
-    res = world.resolution
-    t0 = world.clock
-    x, y, yaw = world.robot_pose
+    goal = belief.anchor(action.furniture)
+    x, y, yaw = physics.robot_pose
     distance = 0.0
     n_turns = 0
     collisions = 0
@@ -88,15 +103,15 @@ def execute_navigate(world, action: Action) -> ActionResult:
     def now() -> float:
         return t0 + distance / cfg.base_speed + n_turns * cfg.turn / cfg.turn_speed + collisions * cfg.recovery_time
 
-    world.set_base(x, y, yaw)
-    world.forward()
-    samples.append(world.sample(now()))
+    physics.set_base(x, y, yaw)
+    physics.forward()
+    samples.append(physics.sample(now()))
     presumed = None
     last_hit = ("", "")
     reason = ""
     success = False
     while True:
-        path = world.search.path((x, y), goal)
+        path = belief.search.path((x, y), goal)
         if presumed is None:
             presumed = np.zeros((0, 2)) if path is None else path.copy()
         if path is None:
@@ -121,25 +136,25 @@ def execute_navigate(world, action: Action) -> ActionResult:
             if k:
                 n_turns += k
                 yaw = heading
-                world.set_base(x, y, yaw)
-                world.forward()
-                samples.append(world.sample(now()))
+                physics.set_base(x, y, yaw)
+                physics.forward()
+                samples.append(physics.sample(now()))
             yaw = heading
             nsub = max(1, int(math.ceil(seg / cfg.step - 1e-9)))
             sx, sy = x, y
             for i in range(1, nsub + 1):
                 px, py = sx + dx * i / nsub, sy + dy * i / nsub
-                world.set_base(px, py, yaw)
-                world.forward()
+                physics.set_base(px, py, yaw)
+                physics.forward()
                 distance += seg / nsub
                 x, y = px, py
                 driven.append((x, y))
                 leg.append((x, y))
-                contacts = world.base_contacts()
+                contacts = physics.base_contacts()
                 if contacts:
                     hit = contacts
                     break
-                samples.append(world.sample(now()))
+                samples.append(physics.sample(now()))
             if hit:
                 break
         if hit is None:
@@ -150,28 +165,27 @@ def execute_navigate(world, action: Action) -> ActionResult:
         inflate = cfg.robot_radius + res
         doors = [h for h in hit if h[2] == "door"]
         for gid, pt, kind, _sid in hit:
-            world.block_cells(pt[:2], inflate)
+            belief.block_cells(pt[:2], inflate)
             if kind == "door":
-                world.block_geom(gid, inflate)
+                x0, y0, x1, y1 = physics.geom_footprint(gid)
+                belief.block_box(x0 - inflate, y0 - inflate, x1 + inflate, y1 + inflate)
         last_hit = (doors[0][2], doors[0][3]) if doors else (hit[0][2], hit[0][3])
-        samples.append(world.sample(now()))
+        samples.append(physics.sample(now()))
         back, done = _walk_back(leg, cfg.backoff)
         for bx, by in back:
             distance += math.hypot(bx - x, by - y)
             x, y = bx, by
             driven.append((x, y))
-            world.set_base(x, y, yaw)
-            world.forward()
-            samples.append(world.sample(now()))
+            physics.set_base(x, y, yaw)
+            physics.forward()
+            samples.append(physics.sample(now()))
         if collisions > cfg.max_nav_replans:
             reason = (f"{action}: blocked at {last_hit[0]} {last_hit[1]} after {collisions} collisions "
                       f"(max_nav_replans={cfg.max_nav_replans})")
             break
     time = distance / cfg.base_speed + n_turns * cfg.turn / cfg.turn_speed + collisions * cfg.recovery_time
-    if success:
-        world.state = State(action.furniture, fur.room, world.state.holding)
     return ActionResult(
         action=action, success=success, cost=nav_cost(collisions, time, distance, cfg.gamma_nav), time=time,
         collisions=collisions, distance=distance, presumed_path=presumed,
         driven_path=np.asarray(driven, dtype=float), reason=reason,
-        trajectory=world.make_trajectory(samples))
+        trajectory=physics.make_trajectory(samples))

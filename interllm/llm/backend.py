@@ -1,0 +1,76 @@
+"""What a backend is: the ``Backend`` protocol, its result types, and the factory by config.
+
+A backend answers ``generate`` (one completion, optionally under a JSON schema) and ``score``
+(log-likelihood of continuations); the client (``interllm.llm.client``) adds the cache, the call
+log, schema checks and repairs. Adding one: implement the protocol and add a branch below (see
+the README's "Adding a backend").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Optional, Protocol
+
+from interllm.config import LLMConfig
+from interllm.llm.types import LLMOptions, Message
+
+
+@dataclass
+class Generation:
+    text: str
+    tokens_in: int
+    tokens_out: int
+    prompt_tokens_reused: int = 0
+    truncated: bool = False  # stopped at max_tokens
+
+
+@dataclass
+class Scores:
+    raw: list[float]  # mean token log-prob of each continuation after the prompt
+    calibration: Optional[list[float]]  # the same after the calibration prompt (None if not asked)
+    tokens_in: int  # tokens evaluated or reused (prompt + continuations)
+    prompt_tokens_reused: int = 0
+    method: str = "logprob"
+
+
+class Backend(Protocol):
+    name: str
+
+    def model_name(self) -> str: ...
+
+    def model_id(self) -> str: ...
+
+    def generate(self, messages: Sequence[Message], schema: Optional[dict], options: LLMOptions,
+                 seed: int) -> Generation: ...
+
+    def score(self, prompt: str, continuations: Sequence[str],
+              calibration_prompt: Optional[str] = None) -> Scores: ...
+
+    def close(self) -> None: ...
+
+
+def make_backend(cfg: LLMConfig) -> Backend:
+    """The backend named by ``cfg.backend`` (no model load or server contact yet)."""
+    if cfg.backend == "embedded":
+        from interllm.llm.embedded import EmbeddedBackend  # lazy: the chosen backend's code only
+
+        return EmbeddedBackend(cfg)
+    if cfg.backend == "ollama":
+        from interllm.llm.ollama_backend import OllamaBackend  # lazy: the chosen backend's code only
+
+        return OllamaBackend(cfg)
+    raise ValueError(f"config key 'llm.backend': {cfg.backend!r} is not valid; choose one of "
+                     f"['embedded', 'ollama']")
+
+
+def preflight(cfg: LLMConfig) -> None:
+    """Before any stage output is written: is the backend there (server up, model present, model
+    file readable)? Raises the backend's error naming the URL or file and the fix. Nothing to
+    check in replay mode, where the cache answers everything."""
+    if cfg.cache_mode == "replay":
+        return
+    backend = make_backend(cfg)
+    check = getattr(backend, "check", None)
+    if check is not None:
+        check()

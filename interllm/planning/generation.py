@@ -1,0 +1,118 @@
+"""Generate mode (the paper's): the LLM writes plans as JSON under a schema, one plan per call
+(candidate j uses ``sample_index=j`` and is asked to differ from the plans already written). With
+``llm.constrain_names`` the schema enumerates the valid ids of the scene graph. Repair feeds the
+feasibility checker's violation texts back; a replan after an execution failure feeds the failure
+text back. Cost inference asks for {"cost": easy|medium|hard|unknown}.
+
+An answer that stays malformed after the client's repair retries becomes the empty plan (which the
+feasibility loop then handles) or the label "unknown".
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Optional
+
+from interllm.config import LLMConfig
+from interllm.core.actions import Action, Plan, State
+from interllm.llm.errors import LLMOutputError
+from interllm.llm.prompts import load_template
+from interllm.llm.types import LLMOptions, LLMRequest, LLMResponse, Message
+from interllm.planning.costs import COST_LABELS
+from interllm.planning.feasibility import FeasibilityReport
+from interllm.planning.memory import KnownCosts
+from interllm.planning.plans import parse_plan, plan_schema
+from interllm.planning.text import (
+    describe_manipulation,
+    known_manipulations_text,
+    plan_text,
+    prompt_fields,
+    scene_json,
+)
+from interllm.scene.graph import Command, SceneGraph
+
+COST_SCHEMA = {"type": "object", "properties": {"cost": {"type": "string", "enum": list(COST_LABELS)}},
+               "required": ["cost"], "additionalProperties": False}
+
+
+def _options(cfg: LLMConfig, sample_index: int = 0) -> LLMOptions:
+    return LLMOptions(temperature=cfg.temperature, seed=cfg.seed, top_p=cfg.top_p, max_tokens=cfg.max_tokens,
+                      sample_index=sample_index)
+
+
+def _complete(client, request: LLMRequest) -> Optional[LLMResponse]:
+    """client.complete, with an answer that stays malformed after the client's repair retries
+    turned into ``None``."""
+    try:
+        return client.complete(request)
+    except LLMOutputError:
+        return None
+
+
+def _parsed(resp: Optional[LLMResponse]) -> Any:
+    return None if resp is None else resp.parsed
+
+
+def generate_plans(client, scene: SceneGraph, state: State, command: Command, cfg: LLMConfig,
+                   M: int, n_objects: int, known: Optional[KnownCosts] = None,
+                   context: tuple = ()) -> list[Plan]:
+    """``M`` plans written by the LLM, one call per plan (sample_index j)."""
+    tpl = load_template("candidates")
+    schema = plan_schema(scene, cfg.constrain_names)
+    plans: list[Plan] = []
+    for j in range(M):
+        prev = ""
+        if plans:
+            prev = "\nPlans already proposed (write a different one):\n" + "\n".join(
+                f"Plan {k + 1}: " + "; ".join(str(a) for a in p) for k, p in enumerate(plans)) + "\n"
+        text = tpl.render(previous=prev, **prompt_fields(scene, state, command, n_objects, known))
+        resp = _complete(client, LLMRequest(purpose="candidates", messages=(Message("user", text),),
+                                          schema=schema, options=_options(cfg, j), template=tpl.name,
+                                          context=context))
+        plans.append(parse_plan(_parsed(resp)))
+    return plans
+
+
+def regenerate_plan_llm(client, scene: SceneGraph, state: State, command: Command, cfg: LLMConfig,
+                        plan: Plan, report: FeasibilityReport, n_objects: int, attempt: int,
+                        sample_index: int = 0, known: Optional[KnownCosts] = None,
+                        context: tuple = ()) -> Plan:
+    tpl = load_template("regeneration")
+    text = tpl.render(plan=plan_text(plan), feedback=report.feedback() or "(none)",
+                      **prompt_fields(scene, state, command, n_objects, known))
+    resp = _complete(client, LLMRequest(
+        purpose="regeneration", messages=(Message("user", text),),
+        schema=plan_schema(scene, cfg.constrain_names),
+        options=_options(cfg, sample_index * 100 + attempt + 1), template=tpl.name, context=context))
+    return parse_plan(_parsed(resp))
+
+
+def replan_llm(client, scene: SceneGraph, state: State, command: Command, cfg: LLMConfig,
+               executed: Sequence[str], failure: str, n_objects: int, excluded: Sequence[str],
+               attempt: int, context: tuple = ()) -> Plan:
+    tpl = load_template("replan")
+    text = tpl.render(scene_json=scene_json(scene), state=state.describe(), command=command.text,
+                      executed="\n".join(executed) or "(nothing)", failure=failure,
+                      excluded=", ".join(excluded) or "(none)", n_objects=n_objects)
+    resp = _complete(client, LLMRequest(
+        purpose="replan", messages=(Message("user", text),),
+        schema=plan_schema(scene, cfg.constrain_names), options=_options(cfg, attempt),
+        template=tpl.name, context=context))
+    return parse_plan(_parsed(resp))
+
+
+def infer_cost_by_generation(client, action: Action, scene: SceneGraph, known: KnownCosts, cfg: LLMConfig,
+                             context: tuple = ()) -> str:
+    """ĉ^text(a_man) in {easy, medium, hard, unknown}, written by the LLM under COST_SCHEMA. With no
+    measured manipulation yet there is nothing to compare with: "unknown" without an LLM call."""
+    known_text = known_manipulations_text(known, scene)
+    if not known_text:
+        return "unknown"
+    tpl = load_template("cost_inference")
+    text = tpl.render(known=known_text, action=describe_manipulation(action, scene))
+    resp = _complete(client, LLMRequest(purpose="cost_inference", messages=(Message("user", text),),
+                                        schema=COST_SCHEMA, options=_options(cfg), template=tpl.name,
+                                        context=context))
+    parsed = _parsed(resp)
+    label = parsed.get("cost") if isinstance(parsed, dict) else None
+    return label if label in COST_LABELS else "unknown"

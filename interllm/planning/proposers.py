@@ -1,0 +1,153 @@
+"""How plan candidates and manipulation-cost labels come from the LLM: one interface, one
+implementation per LLM mode, built once from the LLM config (``make_proposer``). Planners call it
+and never branch on the mode.
+
+- :class:`PlanProposer` — ``propose`` M candidates for a command, ``repair`` a plan the
+  feasibility checker rejected, ``replan`` the rest of a command after an execution failure.
+  ``generate`` mode: :class:`GeneratePlans` (the LLM writes the plans; see
+  ``planning.generation``); ``score`` mode: :class:`ScorePlans` (the LLM ranks objects and
+  targets, plans are sampled and assembled; see ``planning.scoring``).
+- :class:`CostInferrer` — ``infer`` the cost class of a manipulation from the measured ones
+  (``llm.cost_inference_mode``: :class:`GenerateCosts` or :class:`ScoreCosts`).
+- :class:`Proposer` holds one of each, the pair a planner works with.
+
+Adding a mode: a class with the methods of the protocol, registered under its name with
+``@PLAN_PROPOSERS.register("<mode>")`` (or ``COST_INFERRERS``); ``llm.proposal_mode=<mode>``
+then selects it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Optional, Protocol
+
+from interllm.config import LLMConfig
+from interllm.core.actions import Action, Plan, State
+from interllm.llm.types import LLMClientProtocol
+from interllm.planning import generation, scoring
+from interllm.planning.feasibility import FeasibilityReport
+from interllm.planning.memory import KnownCosts
+from interllm.registry import Registry
+from interllm.scene.graph import Command, SceneGraph
+
+
+@dataclass(frozen=True)
+class Exclusions:
+    """Objects a plan must not take and furniture it must not deliver to (sorted ids)."""
+
+    objects: tuple[str, ...] = ()
+    targets: tuple[str, ...] = ()
+
+
+class PlanProposer(Protocol):
+    """Plan candidates from the LLM; ``context`` are the call-log labels of the calls."""
+
+    def propose(self, scene: SceneGraph, state: State, command: Command, n_plans: int, n_objects: int, *,
+                known: Optional[KnownCosts], exclude: Exclusions, seed: int, context: tuple) -> list[Plan]:
+        """Up to ``n_plans`` candidates delivering ``n_objects`` objects for ``command``."""
+
+    def repair(self, plan: Plan, report: FeasibilityReport, scene: SceneGraph, state: State, command: Command,
+               n_objects: int, *, round_index: int, candidate: int, known: Optional[KnownCosts],
+               exclude: Exclusions, context: tuple) -> Plan:
+        """A new version of ``plan`` after the feasibility checker's ``report`` (round ``round_index``
+        of candidate ``candidate``)."""
+
+    def replan(self, scene: SceneGraph, state: State, command: Command, n_objects: int, *,
+               executed: Sequence[str], failure: str, exclude: Exclusions, attempt: int, seed: int,
+               context: tuple) -> Plan:
+        """The rest of ``command`` after an execution failure (``failure``: its text)."""
+
+
+class CostInferrer(Protocol):
+    def infer(self, action: Action, scene: SceneGraph, known: KnownCosts, *, seed_parts: Sequence[Any],
+              context: tuple) -> str:
+        """The cost class of ``action``: easy | medium | hard | unknown."""
+
+
+PLAN_PROPOSERS: Registry = Registry("proposal mode", "llm.proposal_mode")
+COST_INFERRERS: Registry = Registry("cost inference mode", "llm.cost_inference_mode")
+
+
+@PLAN_PROPOSERS.register("generate")
+class GeneratePlans:
+    """The LLM writes, repairs and replans plans (the paper's method)."""
+
+    def __init__(self, client: LLMClientProtocol, cfg: LLMConfig) -> None:
+        self.client, self.cfg = client, cfg
+
+    def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
+        return generation.generate_plans(self.client, scene, state, command, self.cfg, n_plans, n_objects, known,
+                                         context)
+
+    def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
+               context):
+        return generation.regenerate_plan_llm(self.client, scene, state, command, self.cfg, plan, report, n_objects,
+                                              round_index, candidate, known, context)
+
+    def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
+        return generation.replan_llm(self.client, scene, state, command, self.cfg, executed, failure, n_objects,
+                                     exclude.objects, attempt, context)
+
+
+@PLAN_PROPOSERS.register("score")
+class ScorePlans:
+    """Plans sampled from the LLM's scores of objects and targets. The scores of a command are
+    computed once per (command, whether known costs are shown, how many) and reused."""
+
+    def __init__(self, client: LLMClientProtocol, cfg: LLMConfig) -> None:
+        self.client, self.cfg = client, cfg
+        self._scores: dict[tuple, scoring.SemanticScores] = {}
+
+    def scores(self, scene: SceneGraph, command: Command, known: Optional[KnownCosts],
+               context: tuple) -> scoring.SemanticScores:
+        key = (command.id, known is not None, len(known) if known else 0)
+        if key not in self._scores:
+            self._scores[key] = scoring.score_command(self.client, scene, command, self.cfg, known, context)
+        return self._scores[key]
+
+    def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
+        return scoring.propose_by_scores(self.scores(scene, command, known, context), scene, state, n_objects,
+                                         n_plans, self.cfg.temperature, seed, exclude.objects, exclude.targets)
+
+    def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
+               context):
+        return scoring.repair_by_scores(plan, self.scores(scene, command, known, context), scene, state, n_objects,
+                                        exclude.objects, exclude.targets)
+
+    def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
+        plans = scoring.propose_by_scores(self.scores(scene, command, None, context), scene, state, n_objects, 1,
+                                          self.cfg.temperature, seed, exclude.objects, exclude.targets)
+        return plans[0] if plans else ()
+
+
+@COST_INFERRERS.register("generate")
+class GenerateCosts:
+    def __init__(self, client: LLMClientProtocol, cfg: LLMConfig) -> None:
+        self.client, self.cfg = client, cfg
+
+    def infer(self, action, scene, known, *, seed_parts, context):
+        return generation.infer_cost_by_generation(self.client, action, scene, known, self.cfg, context)
+
+
+@COST_INFERRERS.register("score")
+class ScoreCosts:
+    def __init__(self, client: LLMClientProtocol, cfg: LLMConfig) -> None:
+        self.client, self.cfg = client, cfg
+
+    def infer(self, action, scene, known, *, seed_parts, context):
+        return scoring.infer_cost_by_scores(self.client, action, scene, known, self.cfg, seed_parts, context)
+
+
+@dataclass
+class Proposer:
+    """What a planner asks the LLM through: plan proposals and cost inference."""
+
+    plans: PlanProposer
+    costs: CostInferrer
+
+
+def make_proposer(client: LLMClientProtocol, cfg: LLMConfig) -> Proposer:
+    """The proposer of ``llm.proposal_mode`` and ``llm.cost_inference_mode``."""
+    return Proposer(PLAN_PROPOSERS.get(cfg.proposal_mode)(client, cfg),
+                    COST_INFERRERS.get(cfg.cost_inference_mode)(client, cfg))

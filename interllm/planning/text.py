@@ -1,0 +1,69 @@
+"""Text views of the scene graph, the state and the known costs, as the prompts show them."""
+
+from __future__ import annotations
+
+import json
+from typing import Optional
+
+from interllm.core.actions import Action, Plan, State
+from interllm.planning.costs import encode_cost
+from interllm.planning.memory import KnownCosts
+from interllm.scene.graph import Command, SceneGraph
+
+
+def words(s: str) -> str:
+    """An id-like name as words: ``dining_table`` -> ``dining table``."""
+    return s.replace("_", " ")
+
+
+def scene_json(scene: SceneGraph) -> str:
+    """The scene graph the LLM sees (rooms > furniture > objects with semantics), compact JSON."""
+    return json.dumps(scene.to_prompt_dict(), sort_keys=True, separators=(",", ":"))
+
+
+def describe_manipulation(action: Action, scene: SceneGraph) -> str:
+    """'pickup mug (for drinking) from the desk in the office' — location, category, usage."""
+    o = scene.objects.get(action.obj or "")
+    f = scene.furniture.get(action.furniture)
+    cat = words(o.category) if o else str(action.obj)
+    usage = f" ({o.usage})" if o and o.usage else ""
+    if f is not None:
+        room = scene.rooms.get(f.room)
+        loc = f"the {words(f.category)} in the {words(room.type) if room else f.room}"
+    else:
+        loc = f"the {action.furniture}"
+    prep = "from" if action.kind == "pickup" else "on"
+    return f"{action.kind} {cat}{usage} {prep} {loc}"
+
+
+def known_manipulations_text(known: Optional[KnownCosts], scene: SceneGraph) -> str:
+    """The measured manipulations with their cost class, one per line ('' when none)."""
+    if known is None or not known.maned:
+        return ""
+    return "\n".join(f"- {describe_manipulation(r.action, scene)}: {encode_cost(r.cost)}"
+                     for r in known.maned)
+
+
+def known_costs_text(known: Optional[KnownCosts], scene: SceneGraph) -> str:
+    """The measured costs shown to the planner LLM (Inter-LLM's later commands); '' when none."""
+    if known is None or len(known) == 0:
+        return ""
+    lines = ["Measured action costs so far (prefer cheap actions; avoid hard manipulations and "
+             "navigations that collided):"]
+    for r in known.naved:
+        lines.append(f"- {r.action}: cost {r.cost:.1f}")
+    for r in known.maned:
+        lines.append(f"- {r.action}: {encode_cost(r.cost)} ({r.cost:.1f})")
+    return "\n".join(lines) + "\n"
+
+
+def plan_text(plan: Plan) -> str:
+    """A plan as numbered lines ('(empty)' for none)."""
+    return "\n".join(f"{i + 1}. {a}" for i, a in enumerate(plan)) or "(empty)"
+
+
+def prompt_fields(scene: SceneGraph, state: State, command: Command, n_objects: int,
+                  known: Optional[KnownCosts]) -> dict:
+    """The fields every plan-writing template shares."""
+    return {"scene_json": scene_json(scene), "state": state.describe(), "command": command.text,
+            "n_objects": n_objects, "known_costs": known_costs_text(known, scene)}

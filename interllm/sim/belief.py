@@ -1,0 +1,109 @@
+"""``BeliefMap``: the robot's map of the house (paper §IV-B).
+
+``presumed``: every door presumed open, plus the cells where collisions were felt during the
+mission (``block_cells``, ``block_box``); ``true``: door leaves as they are (the reference, never
+used for planning). Grid search runs on the presumed map; ``anchor`` gives the goal point of a
+navigation to a furniture. ``reset`` forgets what a mission learned.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+import numpy as np
+from scipy import ndimage
+
+from interllm.planning.search import GridSearch
+from interllm.scene.geometry import footprint_distance
+from interllm.scene.graph import Furniture
+from interllm.scene.grid import OccupancyGrid
+
+ANCHOR_RINGS = (0.25, 0.5, 1.0)  # [m] beyond the robot radius: how far an anchor may be from a footprint
+
+
+class BeliefMap:
+    """presumed / true occupancy grids of a house for a robot of ``robot_radius`` [m].
+
+    furniture: the house's furniture (static: anchors are computed once per furniture).
+    """
+
+    def __init__(self, presumed: OccupancyGrid, true: OccupancyGrid, furniture: dict[str, Furniture],
+                 robot_radius: float) -> None:
+        self.true = true
+        self.initial = presumed
+        self.robot_radius = float(robot_radius)
+        self._furniture = furniture
+        lab, n = ndimage.label(presumed.free, structure=np.ones((3, 3), dtype=bool))
+        sizes = np.bincount(lab.ravel())[1:]
+        self._main_component = (lab == (int(np.argmax(sizes)) + 1)) if n else np.zeros_like(lab, dtype=bool)
+        self._anchors: dict[str, tuple[float, float]] = {}
+        self.presumed = presumed.copy()
+        self.search = GridSearch(self.presumed)
+
+    def reset(self) -> None:
+        """The initial presumed map again (a new mission)."""
+        self.presumed = self.initial.copy()
+        self.search = GridSearch(self.presumed)
+
+    def anchor(self, furniture_id: str) -> tuple[float, float]:
+        """Goal point [m] for navigating to a furniture: the free cell of the initial presumed
+        map next to it (within robot_radius + 0.25 m of its footprint, widening to 0.5 and 1 m
+        if needed), in the largest connected free region, closest to the furniture centre."""
+        if furniture_id in self._anchors:
+            return self._anchors[furniture_id]
+        if furniture_id not in self._furniture:
+            raise KeyError(f"unknown furniture {furniture_id!r}; valid: {sorted(self._furniture)}")
+        f = self._furniture[furniture_id]
+        g = self.initial
+        cells = np.argwhere(g.free & self._main_component)
+        if len(cells) == 0:
+            cells = np.argwhere(g.free)
+        pts = g.cell_to_world(cells)
+        d_fp = footprint_distance(pts, f.footprint)
+        for ring in ANCHOR_RINGS:
+            ok = d_fp <= self.robot_radius + ring
+            if ok.any():
+                cand = pts[ok]
+                dc = np.hypot(cand[:, 0] - f.center[0], cand[:, 1] - f.center[1])
+                k = int(np.argmin(np.round(dc, 9)))
+                a = (float(cand[k, 0]), float(cand[k, 1]))
+                self._anchors[furniture_id] = a
+                return a
+        raise ValueError(f"furniture {furniture_id!r} has no free cell within "
+                         f"{self.robot_radius + ANCHOR_RINGS[-1]:.2f} m of its footprint; the robot cannot "
+                         f"reach it (check the scene layout or sim.robot_radius)")
+
+    def presumed_path(self, start_xy, furniture_id: str) -> Optional[np.ndarray]:
+        """Shortest path [N, 2] on the current presumed map from ``start_xy`` to the furniture's
+        anchor, or None. This is the paper's presumed path p^pre."""
+        return self.search.path(start_xy, self.anchor(furniture_id))
+
+    def block_cells(self, xy_center, radius: float) -> int:
+        """Mark presumed cells within ``radius`` [m] of a point as occupied; returns how many changed."""
+        g = self.presumed
+        rc = g.world_to_cell(np.asarray(xy_center, dtype=float))
+        rad = int(math.ceil(radius / g.resolution))
+        r0, r1 = max(0, rc[0] - rad), min(g.shape[0], rc[0] + rad + 1)
+        c0, c1 = max(0, rc[1] - rad), min(g.shape[1], rc[1] + rad + 1)
+        if r0 >= r1 or c0 >= c1:
+            return 0
+        rr, cc = np.mgrid[r0:r1, c0:c1]
+        ctr = g.cell_to_world(np.stack([rr, cc], -1))
+        m = np.hypot(ctr[..., 0] - xy_center[0], ctr[..., 1] - xy_center[1]) <= radius
+        before = int(g.occupied[r0:r1, c0:c1].sum())
+        g.occupied[r0:r1, c0:c1] |= m
+        return int(g.occupied[r0:r1, c0:c1].sum()) - before
+
+    def block_box(self, x0: float, y0: float, x1: float, y1: float) -> int:
+        """Mark the presumed cells of an axis-aligned box [m] as occupied; returns how many changed."""
+        g = self.presumed
+        c0, r0 = g.world_to_cell(np.array([x0, y0]))[::-1]
+        c1, r1 = g.world_to_cell(np.array([x1, y1]))[::-1]
+        r0, c0 = max(0, r0), max(0, c0)
+        r1, c1 = min(g.shape[0] - 1, r1), min(g.shape[1] - 1, c1)
+        if r0 > r1 or c0 > c1:
+            return 0
+        before = int(g.occupied[r0:r1 + 1, c0:c1 + 1].sum())
+        g.occupied[r0:r1 + 1, c0:c1 + 1] = True
+        return int(g.occupied[r0:r1 + 1, c0:c1 + 1].sum()) - before

@@ -1,0 +1,175 @@
+"""Stage missions: every planner on every mission in MuJoCo, logged to MCAP, one typed mission
+record per run.
+
+Runs in ``jobs`` worker processes (0: one per usable core). Every run's files depend only on its
+own inputs, so the outputs are the same for any number of workers; the LLM call log is merged in
+job order. Workers die with the stage (``interllm.lifetime``), so a killed stage leaves nothing
+running.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import multiprocessing
+import os
+import traceback
+from pathlib import Path
+
+from interllm.config import ExperimentConfig
+from interllm.core.records import MissionRecord
+from interllm.errors import StageError, UserError
+from interllm.io import read_json, write_json
+from interllm.lifetime import die_with_parent
+from interllm.llm.health import check_failure_share
+from interllm.metrics.compute import Gammas, MissionRows
+from interllm.planners import PLANNERS
+from interllm.planners.runner import run_mission
+from interllm.progress import progress
+from interllm.record.recorder import McapRecorder
+from interllm.scene.graph import SceneGraph
+from interllm.sim.kinematics import RobotKinematics
+from interllm.sim.world import World
+from interllm.stages.inputs import load_grids, load_scene_and_missions, scene_ids, stage_client
+from interllm.stages.provenance import for_run_log, log_loaded_modules, provenance
+from interllm.stages.workers import Job, failed_message, merge_call_logs, usable_cores
+
+
+class MissionWorker:
+    """What running missions needs once per process: the config, an LLM client, the robot model,
+    and the scenes, grids and candidates already loaded (by scene id)."""
+
+    def __init__(self, cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
+                 prov: dict, call_log: Path) -> None:
+        self.cfg, self.scenes_dir, self.candidates_dir, self.out_dir, self.prov = (
+            cfg, Path(scenes_dir), Path(candidates_dir), Path(out_dir), for_run_log(prov))
+        self.client = stage_client(cfg, call_log, "missions")
+        self.robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
+        self.gammas = Gammas.from_config(cfg)
+        self._scenes: dict[str, tuple] = {}
+
+    def scene(self, sid: str) -> tuple:
+        if sid not in self._scenes:
+            scene, missions = load_scene_and_missions(self.scenes_dir, sid, self.cfg)
+            self._scenes[sid] = (scene, {m.id: m for m in missions}, load_grids(self.scenes_dir, sid, self.cfg),
+                                 read_json(self.candidates_dir / f"{sid}.json"))
+        return self._scenes[sid]
+
+    def run(self, planner: str, sid: str, mission_id: str) -> None:
+        scene, missions, grids, cands = self.scene(sid)
+        mission = missions[mission_id]
+        if mission_id not in cands:
+            raise StageError(f"{self.candidates_dir / (sid + '.json')} has no candidates for mission {mission_id!r} "
+                             f"(it has {sorted(cands)}): rerun the candidates stage (dvc repro candidates)")
+        d = self.out_dir / planner / sid
+        d.mkdir(parents=True, exist_ok=True)
+        meta = {"planner": planner, "scene": sid, "mission": mission_id, **self.prov}
+        world = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids)
+        with McapRecorder(d / f"{mission_id}.mcap", scene, meta, grids=grids, robot=self.robot) as rec:
+            hook = metric_rows_logger(rec, planner, scene, mission_id, self.gammas)
+            record = run_mission(planner, world, mission, cands[mission_id], self.client, self.cfg, rec, hook)
+        write_json(d / f"{mission_id}.json", record.to_dict())
+
+
+def metric_rows_logger(recorder, planner: str, scene: SceneGraph, mission_id: str, gammas: Gammas):
+    """A ``run_mission`` hook that logs each command's metric rows (``/metrics/object``,
+    ``/metrics/command``) as the aggregate stage will compute them, when the command ends."""
+    rows = MissionRows(planner, scene.id, mission_id,
+                       {"category": {o.id: o.category for o in scene.objects.values()},
+                        "furniture": {o.id: o.furniture for o in scene.objects.values()}}, gammas)
+
+    def on_command_end(record: MissionRecord, t: float) -> None:
+        objects, command = rows.add(record.commands[-1])
+        for row in objects:
+            recorder.event("/metrics/object", t, row)
+        recorder.event("/metrics/command", t, command)
+    return on_command_end
+
+
+_WORKER: MissionWorker | None = None  # the worker process's state (see _init_worker)
+
+
+def _init_worker(parent: int, ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:
+    """Worker initializer: die with the parent (a killed stage leaves no worker behind), take a
+    call-log file of its own, then set up the worker state."""
+    global _WORKER
+    die_with_parent(parent)
+    _WORKER = MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, ids.get(timeout=60))
+
+
+def _run_in_worker(job: Job) -> None:
+    """Run one job in a worker; a failure comes back naming the job: a user-fixable one as its
+    message, any other with the worker's traceback (the original may not survive pickling)."""
+    assert _WORKER is not None, "_init_worker did not run in this process"
+    try:
+        _WORKER.run(*job)
+    except UserError as e:
+        raise StageError(failed_message(job, e, _WORKER.out_dir)) from None
+    except Exception as e:
+        raise RuntimeError(failed_message(job, e, _WORKER.out_dir) + "\n" + traceback.format_exc()) from None
+    log_loaded_modules("missions")
+
+
+def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
+                 resolved_config: dict | None = None) -> None:
+    """Every planner on every mission: mission records, MCAP run logs, the call log, provenance."""
+    for name in cfg.planner.names:
+        PLANNERS.entry(name)  # an unknown planner fails before any run (names the registered ones)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    prov = provenance(cfg, resolved_config)
+    write_json(out_dir / "provenance.json", prov)
+    jobs = [(p, sid, m.id) for sid in scene_ids(scenes_dir)
+            for m in load_scene_and_missions(scenes_dir, sid, cfg)[1] for p in cfg.planner.names]
+    n_workers = min(cfg.jobs or usable_cores(), len(jobs))
+    call_log = out_dir / "llm_calls.jsonl"
+    for f in (call_log, *out_dir.glob(".llm_calls.worker*.jsonl")):  # whatever a killed run left here
+        f.unlink(missing_ok=True)
+    if n_workers <= 1:
+        _run_in_process(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs)
+    else:
+        _run_in_workers(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs, n_workers)
+    check_failure_share(call_log, cfg.llm, "missions stage")
+
+
+def _run_in_process(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs: list[Job]) -> None:
+    worker = MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log)
+    try:
+        for job in progress(jobs, "missions", total=len(jobs)):
+            try:
+                worker.run(*job)
+            except UserError as e:
+                raise StageError(failed_message(job, e, out_dir)) from e
+            except Exception as e:
+                raise RuntimeError(failed_message(job, e, out_dir)) from e
+    finally:
+        worker.client.close()
+
+
+def _run_in_workers(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs: list[Job],
+                    n_workers: int) -> None:
+    # each worker's model gets its share of the LLM threads (llama.cpp's results do not depend on
+    # the thread count; oversubscribed threads only spin)
+    wcfg = dataclasses.replace(cfg, llm=dataclasses.replace(cfg.llm, n_threads=max(1, cfg.llm.n_threads // n_workers)))
+    parts = [out_dir / f".llm_calls.worker{k}.jsonl" for k in range(n_workers)]
+    ctx = multiprocessing.get_context("spawn")  # no fork of a parent with threads (progress bar)
+    ids = ctx.Queue()
+    for part in parts:
+        ids.put(part)
+    with cf.ProcessPoolExecutor(n_workers, mp_context=ctx, initializer=_init_worker,
+                                initargs=(os.getpid(), ids, wcfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
+        futures = {pool.submit(_run_in_worker, job): job for job in jobs}
+        try:
+            for fut in progress(cf.as_completed(futures), f"missions ({n_workers} workers)", total=len(jobs)):
+                try:
+                    fut.result()
+                except cf.process.BrokenProcessPool as e:  # every pending job sees this, not only the
+                    raise RuntimeError(                      # one whose worker died: name none of them
+                        f"missions stage: a worker process died (killed, out of memory?) while running "
+                        f"{len(jobs)} jobs in {n_workers} workers; rerun with jobs=1 to run them in one "
+                        f"process and see which one fails") from e
+        except BaseException:
+            pool.shutdown(cancel_futures=True)
+            raise
+        finally:
+            merge_call_logs(parts, call_log, jobs)  # also after a failure: the calls made so far
