@@ -1,7 +1,7 @@
 """Simulator benchmark on a generated paper-size scene (9 rooms, 26 furniture, 30 objects).
 
 Prints:
-1. IK solves per second on the small per-furniture model (what manipulation.py uses) vs the
+1. IK solves per second on the small per-furniture model (what sim/manipulator.py uses) vs the
    same solve on the whole-house model (all free joints frozen with mink.DofFreezingTask);
 2. navigation execution speed as a multiple of simulated time (goal >= 100x), and the cost of
    one contact check (mj_kinematics + mj_collision) vs a full mj_forward;

@@ -2,8 +2,10 @@
 
 These dataclasses are the single schema of the experiment. The pipeline registers them in
 Hydra's ConfigStore (``pipeline/_hydra.py``) so that a typo or a wrong type fails at
-composition; ``validate()`` (called from ``__post_init__``) checks ranges and names, so a bad
-value fails with the config key and the valid choices. The library itself never imports hydra:
+composition; ``validate()`` (called from ``__post_init__``) checks ranges and choices, so a bad
+value fails with the config key and the valid choices. Names of registered implementations
+(planners, LLM backends, proposal modes) are checked against their registries by
+``interllm.stages.validate.check_registered`` at composition and before a stage uses them. The library itself never imports hydra:
 it receives instances of these classes.
 
 Units are in the field comments: metres [m], seconds [s], radians [rad].
@@ -18,10 +20,7 @@ from typing import Optional
 
 from interllm.errors import UserError
 
-PLANNER_NAMES = ("inter_llm", "sayplan", "moma_llm")
-LLM_BACKENDS = ("embedded", "ollama")
 CACHE_MODES = ("readwrite", "replay", "off")
-PROPOSAL_MODES = ("score", "generate")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean")
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
 
@@ -94,7 +93,7 @@ class MissionConfig:
 
 @dataclass
 class LLMConfig:
-    backend: str = "embedded"  # one of LLM_BACKENDS
+    backend: str = "embedded"  # a registered LLM backend (interllm.llm.backend.BACKENDS)
     model: str = ""  # GGUF path (embedded; "" = the packaged gemma3-270m) or Ollama model name
     host: str = "http://127.0.0.1:11434"  # Ollama server
     temperature: float = 0.8
@@ -106,15 +105,14 @@ class LLMConfig:
     timeout_s: float = 120.0  # per call [s]
     cache_mode: str = "readwrite"  # one of CACHE_MODES
     cache_dir: str = "data/llm_cache"
-    proposal_mode: str = "score"  # how candidates are proposed, one of PROPOSAL_MODES
-    cost_inference_mode: str = "score"  # manipulation-cost inference, one of PROPOSAL_MODES
+    proposal_mode: str = "score"  # how candidates are proposed (interllm.planning.proposers.PLAN_PROPOSERS)
+    cost_inference_mode: str = "score"  # manipulation-cost inference (...proposers.COST_INFERRERS)
     constrain_names: bool = True  # enumerate valid scene-graph names in schemas
     repair_retries: int = 2  # re-asks after malformed output
     calibrate: bool = True  # score calibration against a content-free prompt
     max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail
 
     def validate(self) -> None:
-        _choice(self.backend, "llm.backend", LLM_BACKENDS)
         _check(0.0 <= self.temperature <= 2.0, "llm.temperature",
                f"must be in [0, 2], got {self.temperature}")
         _check(0.0 < self.top_p <= 1.0, "llm.top_p", f"must be in (0, 1], got {self.top_p}")
@@ -123,8 +121,6 @@ class LLMConfig:
         _check(self.n_ctx >= 512, "llm.n_ctx", "must be >= 512")
         _check(self.timeout_s > 0, "llm.timeout_s", "must be > 0")
         _choice(self.cache_mode, "llm.cache_mode", CACHE_MODES)
-        _choice(self.proposal_mode, "llm.proposal_mode", PROPOSAL_MODES)
-        _choice(self.cost_inference_mode, "llm.cost_inference_mode", PROPOSAL_MODES)
         _check(0 <= self.repair_retries <= 10, "llm.repair_retries", "must be in [0, 10]")
         _check(0.0 <= self.max_failure_share <= 1.0, "llm.max_failure_share",
                f"must be in [0, 1] (share of failed or unparseable LLM calls), got {self.max_failure_share}")
@@ -132,7 +128,7 @@ class LLMConfig:
 
 @dataclass
 class PlannerConfig:
-    names: list[str] = field(default_factory=lambda: list(PLANNER_NAMES))  # planners to run
+    names: list[str] = field(default_factory=lambda: ["inter_llm", "sayplan", "moma_llm"])  # registered planners to run
     M: int = 3  # plan candidates per command
     max_regenerations: int = 3  # feasibility-repair rounds per candidate (bounded loop)
     nav_estimate: str = "paper_sum"  # one of NAV_ESTIMATES
@@ -141,9 +137,7 @@ class PlannerConfig:
     sayplan_max_iterations: int = 3  # SayPlan symbolic-simulator replanning rounds
 
     def validate(self) -> None:
-        _check(len(self.names) >= 1, "planner.names", f"must list at least one of {list(PLANNER_NAMES)}")
-        for n in self.names:
-            _choice(n, "planner.names", PLANNER_NAMES)
+        _check(len(self.names) >= 1, "planner.names", "must list at least one planner")
         _check(len(set(self.names)) == len(self.names), "planner.names", "has duplicates")
         _check(1 <= self.M <= 20, "planner.M", f"must be in [1, 20], got {self.M}")
         _check(0 <= self.max_regenerations <= 20, "planner.max_regenerations", "must be in [0, 20]")

@@ -18,8 +18,8 @@ import yaml
 
 from interllm.config import ConfigError, ExperimentConfig, from_dict
 from interllm.errors import UserError
+from interllm.imports_log import log_loaded_modules
 from interllm.lifetime import die_with_parent
-from interllm.stages.provenance import log_loaded_modules
 
 ROOT = Path(__file__).resolve().parent.parent
 

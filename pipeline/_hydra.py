@@ -12,6 +12,7 @@ from pathlib import Path
 from hydra.core.config_store import ConfigStore
 
 from interllm.config import ExperimentConfig, from_dict
+from interllm.stages.validate import check_registered
 
 CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 
@@ -32,9 +33,12 @@ def compose(overrides: list[str] | None = None, typed: bool = True):
 
 
 def to_config(cfg) -> ExperimentConfig:
-    """The typed config of a composed DictConfig, validated like params.yaml on the DVC path:
-    types, ranges and unknown keys (Hydra lets ``+planner.MM=3`` add a key to the schema)."""
+    """The typed config of a composed DictConfig, validated like params.yaml on the DVC path (types,
+    ranges, unknown keys: Hydra lets ``+planner.MM=3`` add a key to the schema) and against the
+    registries (planners, LLM backends, proposal modes)."""
     from omegaconf import OmegaConf
 
-    return from_dict(OmegaConf.to_container(cfg, resolve=True),
-                     source="the composed config (conf/ and the command-line overrides)")
+    typed = from_dict(OmegaConf.to_container(cfg, resolve=True),
+                      source="the composed config (conf/ and the command-line overrides)")
+    check_registered(typed)
+    return typed

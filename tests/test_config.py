@@ -10,8 +10,9 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from interllm.config import PLANNER_NAMES, ConfigError, ExperimentConfig, from_dict
-from pipeline._hydra import compose
+from interllm.config import ConfigError, ExperimentConfig, from_dict
+from interllm.planners import PLANNERS
+from pipeline._hydra import compose, to_config
 from pipeline.params import compose_params
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -35,7 +36,7 @@ def test_paper_experiment_is_the_papers_protocol():
     assert (cfg.scene.n_rooms, cfg.scene.n_furniture, cfg.scene.n_objects) == (9, 26, 30)
     assert cfg.scene.n_scenes == 3 and cfg.mission.n_missions == 10
     assert cfg.mission.commands_per_mission == 3 and cfg.mission.include_paper_mission
-    assert cfg.planner.names == list(PLANNER_NAMES) and cfg.planner.M == 3
+    assert cfg.planner.names == ["inter_llm", "sayplan", "moma_llm"] == sorted(PLANNERS.names(), key=["inter_llm", "sayplan", "moma_llm"].index) and cfg.planner.M == 3
     assert cfg.llm.temperature == 0.8 and cfg.llm.backend == "embedded"
     assert (cfg.sim.gamma_nav, cfg.sim.gamma_man, cfg.metrics.gamma_obj) == (10, 100, 100)
 
@@ -43,7 +44,7 @@ def test_paper_experiment_is_the_papers_protocol():
 def test_quick_is_one_scene_one_mission_all_planners():
     cfg = OmegaConf.to_object(compose(["experiment=quick"]))
     assert cfg.scene.n_scenes == 1 and cfg.mission.n_missions == 1
-    assert cfg.planner.names == list(PLANNER_NAMES)
+    assert cfg.planner.names == ["inter_llm", "sayplan", "moma_llm"]
 
 
 @pytest.mark.parametrize("override, key, hint", [
@@ -56,7 +57,7 @@ def test_quick_is_one_scene_one_mission_all_planners():
 ])
 def test_out_of_range_values_name_the_key_and_valid_values(override, key, hint):
     with pytest.raises(ConfigError) as e:
-        OmegaConf.to_object(compose([override]))
+        to_config(compose([override]))
     assert f"'{key}'" in str(e.value) and hint in str(e.value)
 
 

@@ -72,7 +72,7 @@ class ActionResult:
     object_events: list[ObjectEvent] = field(default_factory=list)  # grasps / releases (logging only)
 
     def to_record(self) -> dict:
-        """JSON-serialisable record (actions.jsonl, MCAP); paths as lists of [x, y]."""
+        """JSON-serialisable record (mission records, the run log's /actions); paths as lists of [x, y]."""
         d = {
             "action": self.action.to_dict(),
             "kind": self.action.kind,

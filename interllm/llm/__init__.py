@@ -12,7 +12,8 @@ Modules: ``types`` (requests and responses), ``backend`` (the Backend protocol a
 ``ollama_backend``; ``testing`` holds a deterministic test backend (never imported here).
 """
 
-from interllm.llm.backend import Backend, Generation, Scores, make_backend, preflight
+from interllm.llm import embedded, ollama_backend  # noqa: F401  (each registers its backend)
+from interllm.llm.backend import BACKENDS, Backend, Generation, Scores, make_backend, preflight
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog
 from interllm.llm.client import ClientStats, LLMClient, make_client
@@ -30,7 +31,7 @@ from interllm.llm.types import (
 )
 
 __all__ = [
-    "Backend", "CacheMissError", "CallLog", "ClientStats", "Generation", "LLMClient", "LLMClientProtocol",
+    "BACKENDS", "Backend", "CacheMissError", "CallLog", "ClientStats", "Generation", "LLMClient", "LLMClientProtocol",
     "LLMError", "LLMOptions", "LLMOutputError", "LLMQualityError", "LLMRequest", "LLMResponse", "Message",
     "ResponseCache", "ScoreRequest", "ScoreResponse", "Scores", "Template", "TemplateError", "cache_key",
     "check_answer", "load_template", "make_backend", "make_client", "preflight", "template_names",

@@ -2,8 +2,9 @@
 
 A backend answers ``generate`` (one completion, optionally under a JSON schema) and ``score``
 (log-likelihood of continuations); the client (``interllm.llm.client``) adds the cache, the call
-log, schema checks and repairs. Adding one: implement the protocol and add a branch below (see
-the README's "Adding a backend").
+log, schema checks and repairs. Adding one: a class ``Backend(cfg: LLMConfig)`` with the
+methods below, decorated ``@BACKENDS.register("<name>")``, in a module that ``interllm/llm/__init__.py``
+imports; ``llm.backend=<name>`` then selects it (see the README's "Adding a backend").
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Optional, Protocol
 
 from interllm.config import LLMConfig
 from interllm.llm.types import LLMOptions, Message
+from interllm.registry import Registry
 
 
 @dataclass
@@ -50,18 +52,13 @@ class Backend(Protocol):
     def close(self) -> None: ...
 
 
+BACKENDS: Registry = Registry("LLM backend", "llm.backend")  # filled by @BACKENDS.register in each backend
+
+
 def make_backend(cfg: LLMConfig) -> Backend:
-    """The backend named by ``cfg.backend`` (no model load or server contact yet)."""
-    if cfg.backend == "embedded":
-        from interllm.llm.embedded import EmbeddedBackend  # lazy: the chosen backend's code only
-
-        return EmbeddedBackend(cfg)
-    if cfg.backend == "ollama":
-        from interllm.llm.ollama_backend import OllamaBackend  # lazy: the chosen backend's code only
-
-        return OllamaBackend(cfg)
-    raise ValueError(f"config key 'llm.backend': {cfg.backend!r} is not valid; choose one of "
-                     f"['embedded', 'ollama']")
+    """The backend named by ``cfg.backend`` (no model load or server contact yet); an unknown name
+    raises ConfigError listing the registered backends."""
+    return BACKENDS.get(cfg.backend)(cfg)
 
 
 def preflight(cfg: LLMConfig) -> None:

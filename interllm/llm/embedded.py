@@ -49,7 +49,7 @@ import numpy as np
 from interllm.config import LLMConfig
 from interllm.errors import UserError
 from interllm.io import atomic_write_text
-from interllm.llm.backend import Generation, Scores
+from interllm.llm.backend import BACKENDS, Generation, Scores
 from interllm.llm.deadline import DeadlineExceeded
 from interllm.llm.types import LLMOptions, Message
 
@@ -222,6 +222,7 @@ def _log_softmax_at(logits: np.ndarray, token: int) -> float:
     return float(row[token] - m - math.log(float(np.exp(row - m).sum())))
 
 
+@BACKENDS.register("embedded", label="embedded llama.cpp")
 class EmbeddedBackend:
     """llama.cpp in process. Not thread-safe by itself: calls are serialised with a lock."""
 

@@ -24,7 +24,7 @@ from typing import Any, Optional
 
 from interllm.config import LLMConfig
 from interllm.errors import UserError
-from interllm.llm.backend import Generation, Scores
+from interllm.llm.backend import BACKENDS, Generation, Scores
 from interllm.llm.deadline import DeadlineExceeded, call_with_deadline
 from interllm.llm.types import LLMOptions, Message
 
@@ -41,6 +41,7 @@ def _names(model: str) -> set[str]:
     return {model, f"{model}:latest"} if ":" not in model else {model}
 
 
+@BACKENDS.register("ollama", label="Ollama")
 class OllamaBackend:
     name = "ollama"
 

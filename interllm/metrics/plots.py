@@ -13,10 +13,9 @@ from typing import Optional
 
 import numpy as np
 
+from interllm.planners import PLANNERS
 from interllm.planning.similarity import path_overlap
 
-PLANNER_LABELS = {"inter_llm": "Inter-LLM (ours)", "sayplan": "SayPlan", "moma_llm": "MoMa-LLM"}
-PLANNER_COLORS = {"inter_llm": "tab:green", "sayplan": "tab:red", "moma_llm": "tab:blue"}
 DPI = 100
 
 
@@ -40,7 +39,13 @@ def _save(fig, path: str | os.PathLike) -> Path:
 
 
 def label(planner: str) -> str:
-    return PLANNER_LABELS.get(planner, planner)
+    """A planner's display label (from its registration)."""
+    return PLANNERS.label(planner)
+
+
+def color(planner: str) -> str | None:
+    """A planner's colour in figures (from its registration; None: matplotlib's next)."""
+    return PLANNERS.entry(planner).meta.get("color") if planner in PLANNERS else None
 
 
 def cumulative_figure(rows: Iterable[Mapping], path: str | os.PathLike) -> Path:
@@ -58,7 +63,7 @@ def cumulative_figure(rows: Iterable[Mapping], path: str | os.PathLike) -> Path:
         y = np.array([float(r["m_overall_cum"]) for r in rs])
         lo = np.array([float(r["ci_lo"]) for r in rs])
         hi = np.array([float(r["ci_hi"]) for r in rs])
-        c = PLANNER_COLORS.get(p)
+        c = color(p)
         ax.plot(x, y, marker="o", color=c, label=label(p))
         ax.fill_between(x, lo, hi, color=c, alpha=0.2, linewidth=0)
     ax.set_xlabel("object index along the mission")
@@ -90,7 +95,7 @@ def per_object_bars(rows: Iterable[Mapping], metric: str, path: str | os.PathLik
         hi = np.array([float(d[int(i)]["ci_hi"]) for i in xs])
         err = np.vstack([np.clip(m - lo, 0, None), np.clip(hi - m, 0, None)])
         ax.bar(xs + (j - (len(planners) - 1) / 2) * w, m, w, yerr=err, capsize=2,
-               color=PLANNER_COLORS.get(p), label=label(p))
+               color=color(p), label=label(p))
     ax.set_xticks(idx)
     ax.set_xticklabels([f"obj_{i}" for i in idx], rotation=0)
     ax.set_ylabel(ylabel or metric)

@@ -23,6 +23,7 @@ from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, read_json
 from interllm.metrics import plots
 from interllm.metrics.compute import read_csv
+from interllm.planners import PLANNERS
 from interllm.record.figures import mission_trajectories_figure
 
 # Paper Table III ("Comprehensive metric results of algorithm comparison", Yang et al.,
@@ -53,7 +54,6 @@ PAPER_TABLE_II: dict[float, float] = {0.0: 11.0, 0.2: 20.0, 0.4: 35.0, 0.6: 57.0
 TABLE_III_ROWS = (("cc", "Navigation Collision Counts"), ("d", "Navigated Distance (m)"),
                   ("sr_man", "Manipulation Success Rate"), ("t_exe", "Total Execution Time (s)"),
                   ("sr_obj", "Object Fulfillment Rate"))
-PLANNER_ORDER = ("sayplan", "moma_llm", "inter_llm")
 
 
 # ---- a tiny document model rendered to markdown and HTML -------------------------------------
@@ -158,8 +158,10 @@ def _pct(v: Any) -> str:
 
 
 def _ordered(planners: Iterable[str]) -> list[str]:
+    """Registered planners in their report order (baselines first), then any others by name."""
     ps = set(planners)
-    return [p for p in PLANNER_ORDER if p in ps] + sorted(ps - set(PLANNER_ORDER))
+    known = sorted((p for p in ps if p in PLANNERS), key=lambda p: (PLANNERS.entry(p).meta.get("order", 99), p))
+    return known + sorted(p for p in ps if p not in PLANNERS)
 
 
 # ---- sections ----------------------------------------------------------------------------------
@@ -364,7 +366,8 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
         mission, runs = sorted(by_mission.items())[0]
         try:
             f = mission_trajectories_figure({p: runs[p] for p in _ordered(runs)},
-                                            fig_dir / f"trajectories_{sid}_{mission}.png")
+                                            fig_dir / f"trajectories_{sid}_{mission}.png",
+                                            colors={p: plots.color(p) for p in runs if plots.color(p)})
         except (ValueError, OSError) as e:  # an unreadable log must not sink the report
             doc.p(f"Could not draw the trajectories of {sid} {mission}: {e}")
             continue

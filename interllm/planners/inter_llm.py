@@ -41,7 +41,7 @@ def robot_xy(world) -> np.ndarray:
     return np.asarray(world.robot_pose, dtype=float).reshape(-1)[:2]
 
 
-@PLANNERS.register("inter_llm", label="Inter-LLM")
+@PLANNERS.register("inter_llm", label="Inter-LLM (ours)", color="tab:green", order=2)
 class InterLLMPlanner:
     name = "inter_llm"
 

@@ -24,7 +24,7 @@ from interllm.planning.proposers import Exclusions
 from interllm.scene.graph import Command
 
 
-@PLANNERS.register("moma_llm", label="MoMa-LLM")
+@PLANNERS.register("moma_llm", label="MoMa-LLM", color="tab:blue", order=1)
 class MoMaLLMPlanner:
     name = "moma_llm"
 

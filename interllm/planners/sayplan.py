@@ -17,7 +17,7 @@ from interllm.planners.repair import first_feasible
 from interllm.scene.graph import Command
 
 
-@PLANNERS.register("sayplan", label="SayPlan")
+@PLANNERS.register("sayplan", label="SayPlan", color="tab:red", order=0)
 class SayPlanPlanner:
     name = "sayplan"
 

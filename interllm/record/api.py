@@ -1,4 +1,4 @@
-"""The recorder interface the planners and stages log through (implemented by ``record.mcap``).
+"""The recorder interface the planners and stages log through (implemented by ``record.recorder.McapRecorder``).
 
 Every timestamp is simulated mission time [s]. ``NullRecorder`` drops everything (tests,
 benchmarks of the planner alone).

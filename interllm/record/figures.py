@@ -9,16 +9,16 @@ from pathlib import Path
 from interllm.record.reader import RunLog, read_run
 from interllm.scene.render import render_topdown
 
-PLANNER_COLORS = {"inter_llm": "#d62828", "sayplan": "#1f5fbf", "moma_llm": "#f77f00"}
 _FALLBACK = ("#8338ec", "#fb8500", "#3a86ff", "#6a994e")
 
 
 def mission_trajectories_figure(runs: Mapping[str, str | os.PathLike | RunLog], out_png: str | os.PathLike,
-                                title: str | None = None) -> Path:
+                                title: str | None = None, colors: Mapping[str, str] | None = None) -> Path:
     """Draw the base trajectory of each run (the same mission under different planners) on the
     scene, with a triangle where an object was grasped and a circle where it was put down.
 
-    runs: {planner: run .mcap path or RunLog}; all must be of the same scene.
+    runs: {planner: run .mcap path or RunLog}; all must be of the same scene. colors: {planner:
+    matplotlib colour} (others get a fallback colour).
     """
     logs = {k: v if isinstance(v, RunLog) else read_run(v) for k, v in runs.items()}
     if not logs:
@@ -29,7 +29,8 @@ def mission_trajectories_figure(runs: Mapping[str, str | os.PathLike | RunLog], 
     if len(set(scenes.values())) > 1:
         raise ValueError(f"the runs are of different scenes: {scenes}")
     scene = next(r.scene for r in logs.values() if r.scene is not None)
-    colors = {k: PLANNER_COLORS.get(k, _FALLBACK[i % len(_FALLBACK)]) for i, k in enumerate(sorted(logs))}
+    given = dict(colors or {})
+    colors = {k: given.get(k) or _FALLBACK[i % len(_FALLBACK)] for i, k in enumerate(sorted(logs))}
     paths, markers = {}, []
     for k, r in logs.items():
         if len(r.base):
@@ -48,4 +49,4 @@ def mission_trajectories_figure(runs: Mapping[str, str | os.PathLike | RunLog], 
     return Path(out_png)
 
 
-__all__ = ["PLANNER_COLORS", "mission_trajectories_figure"]
+__all__ = ["mission_trajectories_figure"]

@@ -364,7 +364,7 @@ class Manipulator:
         st = state
         cfg = self.cfg
         if action.kind != "pickup":
-            raise ValueError(f"execute_pickup got a {action.kind!r} action: {action}")
+            raise ValueError(f"Manipulator.pickup got a {action.kind!r} action: {action}")
         if action.furniture not in scene.furniture:
             return _precondition_fail(cfg, action, f"unknown furniture {action.furniture!r}")
         if action.obj not in scene.objects:
@@ -409,7 +409,7 @@ class Manipulator:
         st = state
         cfg = self.cfg
         if action.kind != "place":
-            raise ValueError(f"execute_place got a {action.kind!r} action: {action}")
+            raise ValueError(f"Manipulator.place got a {action.kind!r} action: {action}")
         if action.furniture not in scene.furniture:
             return _precondition_fail(cfg, action, f"unknown furniture {action.furniture!r}")
         if st.holding != action.obj:

@@ -85,7 +85,7 @@ class Navigator:
 def _drive(cfg: SimConfig, res: float, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, t0: float,
            action: Action) -> ActionResult:
     if action.kind != "navigate":
-        raise ValueError(f"execute_navigate got a {action.kind!r} action: {action}")
+        raise ValueError(f"Navigator.navigate got a {action.kind!r} action: {action}")
     if action.furniture not in scene.furniture:
         return _fail(action, f"{action}: unknown furniture {action.furniture!r}; valid furniture: "
                              f"{sorted(scene.furniture)}")

@@ -10,11 +10,13 @@ from interllm.llm.health import check_failure_share
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.progress import progress
 from interllm.stages.inputs import load_scene_and_missions, scene_ids, stage_client
+from interllm.stages.validate import check_registered
 
 
 def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> None:
     """``out_dir/<scene_id>.json``: {mission id: {command id: [plan, ...]}}; the call log beside them.
     Nothing is written when too many LLM calls failed (``llm.max_failure_share``)."""
+    check_registered(cfg, planners=False)  # an unknown backend or mode fails before any output
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     call_log = out_dir / "llm_calls.jsonl"

@@ -19,11 +19,11 @@ from pathlib import Path
 from interllm.config import ExperimentConfig
 from interllm.core.records import MissionRecord
 from interllm.errors import StageError, UserError
+from interllm.imports_log import log_loaded_modules
 from interllm.io import read_json, write_json
 from interllm.lifetime import die_with_parent
 from interllm.llm.health import check_failure_share
 from interllm.metrics.compute import Gammas, MissionRows
-from interllm.planners import PLANNERS
 from interllm.planners.runner import run_mission
 from interllm.progress import progress
 from interllm.record.recorder import McapRecorder
@@ -31,7 +31,8 @@ from interllm.scene.graph import SceneGraph
 from interllm.sim.kinematics import RobotKinematics
 from interllm.sim.world import World
 from interllm.stages.inputs import load_grids, load_scene_and_missions, scene_ids, stage_client
-from interllm.stages.provenance import for_run_log, log_loaded_modules, provenance
+from interllm.stages.provenance import for_run_log, provenance
+from interllm.stages.validate import check_registered
 from interllm.stages.workers import Job, failed_message, merge_call_logs, usable_cores
 
 
@@ -113,8 +114,7 @@ def _run_in_worker(job: Job) -> None:
 def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
                  resolved_config: dict | None = None) -> None:
     """Every planner on every mission: mission records, MCAP run logs, the call log, provenance."""
-    for name in cfg.planner.names:
-        PLANNERS.entry(name)  # an unknown planner fails before any run (names the registered ones)
+    check_registered(cfg)  # an unknown planner, backend or mode fails before any output
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     prov = provenance(cfg, resolved_config)

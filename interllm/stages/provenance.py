@@ -5,13 +5,9 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import json
-import os
 import platform
 import subprocess
-import sys
 from importlib import metadata
-from pathlib import Path
 
 from interllm import numerics
 from interllm.config import ExperimentConfig
@@ -101,24 +97,3 @@ def for_run_log(prov: dict) -> dict:
         out["execution_settings"] = (f"left out of this log ({', '.join(EXECUTION_SETTINGS)}): they do not "
                                      "change results; provenance.json beside the runs has them")
     return out
-
-
-def log_loaded_modules(stage: str) -> None:
-    """With INTERLLM_IMPORTS_LOG=<file>, append {"stage", "modules"}: the repository's source files
-    this process has loaded (stage entry points and missions workers call it).
-    tests/test_pipeline_e2e.py checks they are all among the stage's dvc.yaml deps, so that DVC
-    reruns a stage whenever code it runs changes."""
-    out = os.environ.get("INTERLLM_IMPORTS_LOG")
-    if not out:
-        return
-    root = Path(__file__).resolve().parents[2]
-    files = set()
-    for mod in list(sys.modules.values()):
-        f = getattr(mod, "__file__", None)
-        if not f or not f.endswith(".py"):
-            continue
-        path = Path(f).resolve()
-        if path.is_relative_to(root) and path.relative_to(root).parts[0] in ("interllm", "pipeline"):
-            files.add(path.relative_to(root).as_posix())
-    with open(out, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({"stage": stage, "modules": sorted(files)}) + "\n")

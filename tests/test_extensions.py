@@ -1,0 +1,162 @@
+"""The README's "Adding a planner" and "Adding a backend" recipes, followed once each: a planner, an
+LLM backend and a proposal mode defined here, registered, and run on the quick experiment
+(one paper-size scene, the paper's mission) through the real stages."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import pytest
+
+from interllm.config import ConfigError, from_dict
+from interllm.core.actions import plan_to_list
+from interllm.core.seeding import llm_sample_seed
+from interllm.llm.backend import BACKENDS, Generation, Scores
+from interllm.planners import PLANNERS
+from interllm.planners.base import CommandResult
+from interllm.planners.context import PlannerContext
+from interllm.planners.execution import execute_plan, finish, new_result
+from interllm.planning.plans import assemble_plan
+from interllm.planning.proposers import PLAN_PROPOSERS, Exclusions
+from interllm.scene.graph import Command
+from interllm.stages.aggregate import run_aggregate
+from interllm.stages.candidates import run_candidates
+from interllm.stages.missions import run_missions
+from interllm.stages.scenes import run_scenes
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# -- "Adding a planner": execute the first initial candidate as it is -------------------------------
+class FirstCandidatePlanner:
+    """Executes the first shared initial candidate without repair or look-ahead."""
+
+    name = "first_candidate"
+
+    def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
+        ctx.start_command()
+        result = new_result(command)
+        proposed = ctx.candidates_for(command)
+        if proposed:
+            result.selected_plan = proposed[0]
+            result.candidates = [proposed[0]]
+            ctx.event("/planner/selected", command, {"index": 0, "plan": plan_to_list(proposed[0])})
+            execute_plan(ctx, command, proposed[0], result)
+        return finish(ctx, result)
+
+
+# -- "Adding a backend": a backend that scores by word overlap, and a proposal mode ----------------
+class OverlapBackend:
+    """Scores a continuation by the share of its words found in the prompt; writes no plans."""
+
+    name = "overlap"
+
+    def __init__(self, cfg) -> None:
+        self.cfg = cfg
+        self.score_calls = 0
+
+    def model_name(self) -> str:
+        return "word-overlap-v1"
+
+    def model_id(self) -> str:
+        return hashlib.sha256(b"word-overlap-v1").hexdigest()
+
+    def generate(self, messages, schema, options, seed) -> Generation:
+        raise RuntimeError("the overlap backend only scores; use a score proposal mode")
+
+    def score(self, prompt: str, continuations: Sequence[str], calibration_prompt=None) -> Scores:
+        self.score_calls += 1
+        words = set(prompt.lower().split())
+
+        def f(c: str) -> float:
+            w = c.lower().split()
+            return sum(x in words for x in w) / max(1, len(w)) - llm_sample_seed(c) / 2**31 * 1e-3
+        raw = [f(c) for c in continuations]
+        calib = [f(c) * 0.5 for c in continuations] if calibration_prompt is not None else None
+        return Scores(raw=raw, calibration=calib, tokens_in=len(prompt.split()))
+
+    def close(self) -> None:
+        pass
+
+
+class NearestObjectsProposer:
+    """A proposal mode without the LLM: the first objects (in id order) not on the target,
+    delivered to the last furniture in id order; repair and replan re-assemble the same way."""
+
+    def __init__(self, client, cfg) -> None:
+        self.client, self.cfg = client, cfg
+
+    def _plan(self, scene, state, n_objects, exclude: Exclusions):
+        target = sorted(f for f in scene.furniture if f not in exclude.targets)[-1]
+        objs = [o for o in sorted(scene.objects) if o not in exclude.objects and o != state.holding
+                and scene.objects[o].furniture != target][:n_objects]
+        return assemble_plan(scene, state, objs, target)
+
+    def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
+        return [self._plan(scene, state, n_objects, exclude)]
+
+    def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
+               context):
+        return self._plan(scene, state, n_objects, exclude)
+
+    def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
+        return self._plan(scene, state, n_objects, exclude)
+
+
+@pytest.fixture
+def registered():
+    PLANNERS.register("first_candidate", label="First candidate", color="tab:gray", order=3)(FirstCandidatePlanner)
+    BACKENDS.register("overlap")(OverlapBackend)
+    PLAN_PROPOSERS.register("nearest")(NearestObjectsProposer)
+    yield
+    PLANNERS.unregister("first_candidate")
+    BACKENDS.unregister("overlap")
+    PLAN_PROPOSERS.unregister("nearest")
+
+
+def _quick(tmp_path, **llm):
+    return from_dict({"jobs": 1,  # a planner registered here exists in this process only
+                      "scene": {"n_scenes": 1}, "mission": {"n_missions": 1},
+                      "llm": {"cache_dir": str(tmp_path / "cache"), **llm},
+                      "planner": {"names": ["first_candidate", "sayplan"]}})
+
+
+def test_a_new_planner_runs_the_quick_experiment(registered, tmp_path, monkeypatch):
+    monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    cfg = _quick(tmp_path, cache_mode="replay")
+    cfg.llm.cache_dir = str(ROOT / "data" / "llm_cache")  # the committed answers of the quick experiment
+    run_scenes(cfg, tmp_path / "scenes")
+    run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
+    run_missions(cfg, tmp_path / "scenes", tmp_path / "candidates", tmp_path / "runs")
+    metrics = run_aggregate(cfg, tmp_path / "runs", tmp_path / "scenes", tmp_path / "metrics")
+    assert set(metrics["planners"]) == {"first_candidate", "sayplan"}
+    rec = json.loads(next((tmp_path / "runs" / "first_candidate").rglob("m000.json")).read_text())
+    assert len(rec["commands"]) == 3 and all(c["summary"]["selected_plan"] for c in rec["commands"])
+    assert metrics["planners"]["first_candidate"]["n_objects"] == 9
+
+
+def test_a_new_backend_and_proposal_mode_run_the_quick_experiment(registered, tmp_path, monkeypatch):
+    monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    cfg = _quick(tmp_path, backend="overlap", proposal_mode="nearest", cost_inference_mode="score")
+    cfg.planner.names = ["first_candidate", "inter_llm"]
+    run_scenes(cfg, tmp_path / "scenes")
+    run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
+    cands = json.loads(next((tmp_path / "candidates").glob("*.json")).read_text())
+    first = cands["m000"]["breakfast"]
+    assert len(first) == 1 and first[0][-1]["action"] == "place"  # the proposal mode's one plan
+    run_missions(cfg, tmp_path / "scenes", tmp_path / "candidates", tmp_path / "runs")
+    calls = [json.loads(x) for x in (tmp_path / "runs" / "llm_calls.jsonl").read_text().splitlines()]
+    assert calls and {c["backend"] for c in calls} == {"overlap"}  # Inter-LLM's cost inference scored
+    assert {c["purpose"] for c in calls} == {"score_cost"}
+    assert any((tmp_path / "cache").rglob("*.json"))  # answers cached under the new backend's identity
+
+
+def test_unregistered_names_fail_before_any_output(tmp_path):
+    cfg = _quick(tmp_path, backend="nope")
+    with pytest.raises(ConfigError, match=r"'llm.backend': 'nope' is not a registered LLM backend; choose one "
+                                          r"of \['embedded', 'ollama'\]"):
+        run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
+    assert not (tmp_path / "candidates").exists()
