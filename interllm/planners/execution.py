@@ -105,7 +105,7 @@ def execute_plan(ctx: PlannerContext, command: Command, plan: Plan, result: Comm
 
 
 def new_result(command: Command) -> CommandResult:
-    return CommandResult(command_id=command.id, selected_plan=(), candidates=[], estimated_costs=[], actions=[])
+    return CommandResult(command_id=command.id)
 
 
 def finish(ctx: PlannerContext, result: CommandResult) -> CommandResult:
