@@ -195,3 +195,38 @@ def test_concurrent_writers_lose_nothing(tmp_path):
     assert len(entries) == 90
     assert all(cache.get(p.stem) is not None for p in entries) and cache.corrupt == 0
     assert not list((tmp_path / "cache").rglob("*.tmp"))
+
+
+def test_the_first_answer_stored_wins_and_every_process_goes_on_with_it(tmp_path):
+    """Two workers ask the same request of a server whose answers vary; the second to finish must
+    use the first one's answer (the one a replay will give), not its own."""
+    answers = iter(['{"a": 1}', '{"a": 2}'])
+    slow = make_client(LLMConfig(cache_dir=str(tmp_path / "cache")),
+                       backend=DeterministicBackend(generate_fn=lambda *a: next(answers)))
+    first = slow.complete(BASE)  # stored: {"a": 1}
+    path = slow.cache.path_for(first.key)
+    other = make_client(LLMConfig(cache_dir=str(tmp_path / "cache")),
+                        backend=DeterministicBackend(generate_fn=lambda *a: '{"a": 7}'))
+    # the other worker started before the entry existed: it asks the backend, then finds the entry
+    resp = other._core.cache.put(first.key, {}, {"text": '{"a": 7}', "tokens_in": 1, "tokens_out": 1, "errors": [],
+                                                 "attempts": 1})
+    assert resp["text"] == '{"a": 1}' and json.loads(path.read_text())["response"]["text"] == '{"a": 1}'
+    path.unlink()
+    path.parent.mkdir(exist_ok=True)
+    path.write_text("not json")  # a corrupt entry is replaced by the next answer
+    assert other._core.cache.put(first.key, {}, {"text": "x", "tokens_in": 0, "tokens_out": 0, "errors": [],
+                                                 "attempts": 1})["text"] == "x"
+    assert json.loads(path.read_text())["response"]["text"] == "x"
+
+
+def test_a_client_that_loses_the_race_returns_the_stored_answer(tmp_path):
+    a = make_client(LLMConfig(cache_dir=str(tmp_path / "cache")),
+                    backend=DeterministicBackend(generate_fn=lambda *x: '{"a": 1}'))
+
+    def meanwhile(*x):  # while B's backend works, A answers the same request and stores it
+        a.complete(BASE)
+        return '{"a": 7}'
+
+    b = make_client(LLMConfig(cache_dir=str(tmp_path / "cache")), backend=DeterministicBackend(generate_fn=meanwhile))
+    r = b.complete(BASE)
+    assert not r.cached and r.parsed == {"a": 1} and r.text == '{"a": 1}'

@@ -70,7 +70,11 @@ def test_retries_exhausted_raise_and_are_logged(tmp_path):
     assert be.generate_calls == 2 and len(e.value.errors) == 2
     rec = json.loads((tmp_path / "calls.jsonl").read_text().splitlines()[-1])
     assert "stayed invalid" in rec["error"]
-    assert not list((tmp_path / "c").glob("??/*.json"))  # failures are never cached
+    entries = list((tmp_path / "c").glob("??/*.json"))  # the failed outcome is cached like an answer,
+    assert len(entries) == 1 and json.loads(entries[0].read_text())["response"]["failed"] is True
+    with pytest.raises(LLMOutputError, match="llm.repair_retries") as again:  # so a replay meets the same failure
+        make_client(LLMConfig(cache_dir=str(tmp_path / "c"), cache_mode="replay"), backend=be).complete(_req())
+    assert str(again.value) == str(e.value) and be.generate_calls == 2  # without asking the model again
 
 
 def test_call_log_labels_views_counters_and_callback(tmp_path):

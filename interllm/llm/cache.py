@@ -26,7 +26,7 @@ from typing import Optional
 from interllm.config import CACHE_MODES
 from interllm.core import jsonfmt
 from interllm.errors import UserError
-from interllm.io import atomic_write_text
+from interllm.io import atomic_create_bytes, atomic_write_bytes
 
 log = logging.getLogger(__name__)
 
@@ -113,21 +113,28 @@ class ResponseCache:
                 f"or restore {self.dir} from git/DVC.")
         return None
 
-    def put(self, key: str, request_summary: dict, response: dict) -> Optional[Path]:
-        """Store an entry atomically (no-op unless mode is ``readwrite``). A cache folder that cannot
-        be written (read-only, full, an entry path taken by a folder) costs the caching, never the
-        answer: one warning, and this cache stops writing for the rest of the run."""
+    def put(self, key: str, request_summary: dict, response: dict) -> dict:
+        """Store an entry atomically (no-op unless mode is ``readwrite``) and return the response the
+        cache holds for ``key``: the first writer wins, so when another process (a mission worker,
+        a parallel job) stored an answer to the same request meanwhile, that answer is returned and
+        kept, and every process goes on with the answer a replay will give. A cache folder that
+        cannot be written (read-only, full, an entry path taken by a folder) costs the caching,
+        never the answer: one warning, and this cache stops writing for the rest of the run."""
         if self.mode != "readwrite" or not self.writable:
-            return None
+            return response
         entry = {"cache_format": CACHE_FORMAT, "key": key, "request": request_summary,
                  "response": response, "checksum": response_checksum(response)}
-        text = jsonfmt.pretty(entry)
+        data = jsonfmt.pretty(entry).encode("utf-8")
         path = self.path_for(key)
         try:
-            atomic_write_text(path, text)
+            if atomic_create_bytes(path, data):
+                return response
+            held = self._read(key)
+            if held is not None:
+                return held
+            atomic_write_bytes(path, data)  # a corrupt entry: this answer replaces it
         except OSError as e:
             self.writable = False
             log.warning("LLM cache %s cannot be written (%s: %s); answers of this run are not cached. Make "
                         "the folder writable or point llm.cache_dir elsewhere", self.dir, path, e.strerror or e)
-            return None
-        return path
+        return response

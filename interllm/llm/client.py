@@ -251,6 +251,9 @@ class LLMClient:
                           tokens_out=0, latency=0.0, cached=False, error=str(e),
                           sample_index=request.options.sample_index)
                 raise
+            if hit is not None and hit.get("failed"):  # the model's answer stayed invalid when it was asked
+                core.stats.cache_hits += 1
+                self._raise_output_failure(request, key, labels, hit, latency=0.0, reused=0, cached=True)
             if hit is not None:
                 # the key covers the schema and the entry's checksum held: it was validated when stored
                 parsed = json.loads(hit["text"]) if request.schema is not None else None
@@ -304,7 +307,12 @@ class LLMClient:
             if err is None:
                 response = {"text": text, "tokens_in": tin, "tokens_out": tout, "errors": errors,
                             "attempts": attempt + 1}
-                core.cache.put(key, summary, response)
+                held = core.cache.put(key, summary, response)
+                if held is not response and held.get("failed"):  # another process stored a failure first
+                    self._raise_output_failure(request, key, labels, held, latency, reused, cached=False)
+                if held is not response:  # another process answered first: go on with the cached answer
+                    text, tin, tout, errors = held["text"], held["tokens_in"], held["tokens_out"], list(held["errors"])
+                    parsed = json.loads(text) if request.schema is not None else None
                 self._log(kind="complete", purpose=request.purpose, context=labels, key=key,
                           tokens_in=tin, tokens_out=tout, latency=latency, cached=False,
                           prompt_tokens_reused=reused, errors=tuple(errors),
@@ -318,17 +326,38 @@ class LLMClient:
                 messages += [Message("assistant", text),
                              Message("user", f"Your answer was invalid: {err}. Answer again with only "
                                              f"a JSON value that satisfies the schema.")]
+        # the outcome is cached like an answer (first writer wins), so that a replay and every other
+        # process asking the same request meet the same failure, not a luckier sample
+        failed = {"failed": True, "text": text, "tokens_in": tin, "tokens_out": tout, "errors": errors,
+                  "attempts": core.cfg.repair_retries + 1}
+        held = core.cache.put(key, summary, failed)
+        if held is not failed and not held.get("failed"):  # another process stored an answer first
+            parsed = json.loads(held["text"]) if request.schema is not None else None
+            self._log(kind="complete", purpose=request.purpose, context=labels, key=key, tokens_in=held["tokens_in"],
+                      tokens_out=held["tokens_out"], latency=latency, cached=False, prompt_tokens_reused=reused,
+                      errors=tuple(held["errors"]), sample_index=request.options.sample_index)
+            return LLMResponse(text=held["text"], parsed=parsed, tokens_in=held["tokens_in"],
+                               tokens_out=held["tokens_out"], latency=latency, cached=False, key=key,
+                               prompt_tokens_reused=reused, errors=tuple(held["errors"]))
+        self._raise_output_failure(request, key, labels, held, latency, reused, cached=False)
+
+    def _raise_output_failure(self, request: LLMRequest, key: str, labels: tuple, entry: dict, latency: float,
+                              reused: int, cached: bool):
+        """Log an answer that stayed invalid after the repairs (``entry``: the failed outcome) and raise
+        :class:`LLMOutputError`, or :class:`LLMQualityError` when failures are over their share."""
+        core = self._core
         core.stats.failures += 1
+        errors = list(entry["errors"])
         msg = (f"LLM output for purpose={request.purpose!r} stayed invalid after "
-               f"{core.cfg.repair_retries} repair retries (llm.repair_retries): {errors[-1]}")
-        self._log(kind="complete", purpose=request.purpose, context=labels, key=key, tokens_in=tin,
-                  tokens_out=tout, latency=latency, cached=False, prompt_tokens_reused=reused,
+               f"{int(entry['attempts']) - 1} repair retries (llm.repair_retries): {errors[-1]}")
+        self._log(kind="complete", purpose=request.purpose, context=labels, key=key, tokens_in=entry["tokens_in"],
+                  tokens_out=entry["tokens_out"], latency=latency, cached=cached, prompt_tokens_reused=reused,
                   errors=tuple(errors), error=msg, sample_index=request.options.sample_index,
-                  answer=text[:200])
-        stop = core.note_failure(text)
+                  answer=str(entry["text"])[:200])
+        stop = core.note_failure(str(entry["text"]))
         if stop is not None:
-            raise stop from LLMOutputError(msg, tuple(errors), text)
-        raise LLMOutputError(msg, tuple(errors), text)
+            raise stop from LLMOutputError(msg, tuple(errors), entry["text"])
+        raise LLMOutputError(msg, tuple(errors), entry["text"])
 
     # -- score --------------------------------------------------------------------------------
     def score(self, request: ScoreRequest) -> ScoreResponse:
@@ -379,7 +408,9 @@ class LLMClient:
             scores = ([r - c for r, c in zip(raw, sc.calibration, strict=False)] if sc.calibration is not None else raw)
             response = {"raw": raw, "scores": scores, "tokens_in": sc.tokens_in, "method": sc.method,
                         "calibration": list(sc.calibration) if sc.calibration is not None else None}
-            core.cache.put(key, summary, response)
+            held = core.cache.put(key, summary, response)
+            if held is not response:  # another process answered first: go on with the cached answer
+                raw, scores = list(held["raw"]), list(held["scores"])
             self._log(kind="score", purpose=request.purpose, context=labels, key=key,
                       tokens_in=sc.tokens_in, tokens_out=0, latency=dt, cached=False,
                       prompt_tokens_reused=sc.prompt_tokens_reused)
