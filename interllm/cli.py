@@ -9,6 +9,7 @@
     interllm report --sweeps multirun/                   # report + ablation tables of multiruns
     interllm cache stats [--dir data/llm_cache]
     interllm results diff [--reference HEAD] [--check]   # metrics.json against the committed one
+    interllm llm probe [llm.backend=openai llm.base_url=... llm.model=...]   # what the LLM server does
 """
 
 from __future__ import annotations
@@ -161,6 +162,41 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
+def _set_dotted(d: dict, key: str, value) -> None:
+    *parents, leaf = key.split(".")
+    for k in parents:
+        d = d.setdefault(k, {})
+    d[leaf] = value
+
+
+def _llm_probe(args) -> int:
+    """What the configured LLM backend does: the conformance probe of a server, or its identity."""
+    import yaml  # lazy: a command loads only its own code
+
+    from interllm.config import from_dict  # lazy: a command loads only its own code
+    from interllm.llm.backend import make_backend  # lazy: a command loads only its own code
+
+    params = Path(args.params)
+    raw = yaml.safe_load(params.read_text(encoding="utf-8")) or {} if params.is_file() else {}
+    for o in args.overrides:
+        key, sep, value = o.partition("=")
+        if not sep:
+            print(f"interllm llm probe: error: override {o!r} is not key=value (e.g. llm.base_url=http://...)",
+                  file=sys.stderr)
+            return 2
+        _set_dotted(raw, key, yaml.safe_load(value))
+    cfg = from_dict(raw, source=f"{params} and the overrides")
+    backend = make_backend(cfg.llm)
+    try:
+        probe = getattr(backend, "probe", None)
+        out = probe().to_dict() if probe is not None else {"backend": backend.name, "model": backend.model_name(),
+                                                           "model_id": backend.model_id()}
+    finally:
+        backend.close()
+    print(json.dumps(out, indent=1, sort_keys=True))
+    return 0
+
+
 def _main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "replay":
@@ -196,7 +232,14 @@ def _main(argv: list[str] | None = None) -> int:
     rd.add_argument("--file", default="data/metrics/metrics.json")
     rd.add_argument("--repo", default=".", help="repository root (default: the current directory)")
     rd.add_argument("--check", action="store_true", help="exit 1 when the results differ")
+    lm = sub.add_parser("llm", help="LLM backend tools").add_subparsers(dest="lcmd", required=True)
+    pr = lm.add_parser("probe", help="what the configured backend's server does (JSON schema, log-probabilities, "
+                                     "seed, context length, fingerprint)")
+    pr.add_argument("overrides", nargs="*", help="config overrides key=value, e.g. llm.backend=openai")
+    pr.add_argument("--params", default="params.yaml")
     args = ap.parse_args(argv)
+    if args.cmd == "llm":
+        return _llm_probe(args)
     if args.cmd == "results":
         return _results_diff(args)
     if args.cmd == "scene":

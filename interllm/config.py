@@ -95,14 +95,17 @@ class MissionConfig:
 class LLMConfig:
     backend: str = "embedded"  # a registered LLM backend (interllm.llm.backend.BACKENDS)
     model: str = ""  # GGUF path (embedded; "" = the packaged gemma3-270m) or Ollama model name
-    host: str = "http://127.0.0.1:11434"  # Ollama server
+    host: str = "http://127.0.0.1:11434"  # Ollama server (llm.backend=ollama)
+    base_url: str = "http://127.0.0.1:8080/v1"  # OpenAI-compatible server (llm.backend=openai)
+    api_key_env: str = "OPENAI_API_KEY"  # name of the environment variable holding the key (never the key)
     temperature: float = 0.8
     top_p: float = 0.95
     max_tokens: int = 384
     seed: int = 0
     n_threads: int = 2
     n_ctx: int = 8192
-    timeout_s: float = 120.0  # per call [s]
+    timeout_s: float = 120.0  # [s] whole-call deadline of one request
+    max_retries: int = 3  # retries of a request after HTTP 429 / 5xx / connection errors (exponential backoff)
     cache_mode: str = "readwrite"  # one of CACHE_MODES
     cache_dir: str = "data/llm_cache"
     proposal_mode: str = "score"  # how candidates are proposed (interllm.planning.proposers.PLAN_PROPOSERS)
@@ -120,6 +123,9 @@ class LLMConfig:
         _check(self.n_threads >= 1, "llm.n_threads", "must be >= 1")
         _check(self.n_ctx >= 512, "llm.n_ctx", "must be >= 512")
         _check(self.timeout_s > 0, "llm.timeout_s", "must be > 0")
+        _check(0 <= self.max_retries <= 10, "llm.max_retries", f"must be in [0, 10], got {self.max_retries}")
+        _check(bool(self.api_key_env) and self.api_key_env.replace("_", "").isalnum(), "llm.api_key_env",
+               f"must be the NAME of an environment variable (e.g. OPENAI_API_KEY), got {self.api_key_env!r}")
         _choice(self.cache_mode, "llm.cache_mode", CACHE_MODES)
         _check(0 <= self.repair_retries <= 10, "llm.repair_retries", "must be in [0, 10]")
         _check(0.0 <= self.max_failure_share <= 1.0, "llm.max_failure_share",

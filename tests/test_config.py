@@ -51,7 +51,7 @@ def test_quick_is_one_scene_one_mission_all_planners():
     ("llm.temperature=-1", "llm.temperature", "[0, 2]"),
     ("planner.M=0", "planner.M", "[1, 20]"),
     ("planner.names=[foo]", "planner.names", "inter_llm"),
-    ("llm.backend=openai", "llm.backend", "embedded"),
+    ("llm.backend=chatgpt", "llm.backend", "openai"),
     ("llm.cache_mode=sometimes", "llm.cache_mode", "replay"),
     ("sim.n_l=0", "sim.n_l", "[1, 50]"),
 ])

@@ -61,13 +61,19 @@ def make_backend(cfg: LLMConfig) -> Backend:
     return BACKENDS.get(cfg.backend)(cfg)
 
 
-def preflight(cfg: LLMConfig) -> None:
+def preflight(cfg: LLMConfig) -> dict | None:
     """Before any stage output is written: is the backend there (server up, model present, model
-    file readable)? Raises the backend's error naming the URL or file and the fix. Nothing to
-    check in replay mode, where the cache answers everything."""
+    file readable, the modes' needs met)? Raises the backend's error naming the URL or file and the
+    fix; returns what a backend with a conformance probe measured (else None). Nothing to check in
+    replay mode, where the cache answers everything."""
     if cfg.cache_mode == "replay":
-        return
+        return None
     backend = make_backend(cfg)
-    check = getattr(backend, "check", None)
-    if check is not None:
-        check()
+    try:
+        check = getattr(backend, "check", None)
+        if check is not None:
+            check()
+        probe = getattr(backend, "probe", None)
+        return probe().to_dict() if probe is not None else None
+    finally:
+        backend.close()

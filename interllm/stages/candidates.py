@@ -6,10 +6,11 @@ from pathlib import Path
 
 from interllm.config import ExperimentConfig
 from interllm.io import write_json
+from interllm.llm.backend import preflight
 from interllm.llm.health import check_failure_share
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.progress import progress
-from interllm.stages.inputs import load_scene_and_missions, scene_ids, stage_client
+from interllm.stages.inputs import PROBE_FILE, load_scene_and_missions, scene_ids, stage_client
 from interllm.stages.validate import check_registered
 
 
@@ -17,8 +18,13 @@ def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> No
     """``out_dir/<scene_id>.json``: {mission id: {command id: [plan, ...]}}; the call log beside them.
     Nothing is written when too many LLM calls failed (``llm.max_failure_share``)."""
     check_registered(cfg, planners=False)  # an unknown backend or mode fails before any output
+    probe = preflight(cfg.llm)  # server up, model served, modes supported (the conformance probe)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    if probe is not None:
+        write_json(out_dir / PROBE_FILE, probe)
+    else:
+        (out_dir / PROBE_FILE).unlink(missing_ok=True)  # an earlier run's server is not this run's
     call_log = out_dir / "llm_calls.jsonl"
     call_log.unlink(missing_ok=True)  # what an earlier (killed) run left here
     client = stage_client(cfg, call_log, "candidates")

@@ -12,6 +12,8 @@ from interllm.scene.graph import Mission, SceneGraph
 from interllm.scene.grid import OccupancyGrid
 from interllm.scene.missions import load_missions
 
+PROBE_FILE = "llm_probe.json"  # in the candidates folder: what the LLM server's conformance probe measured
+
 
 def scene_ids(scenes_dir: Path) -> list[str]:
     ids = sorted(p.name for p in Path(scenes_dir).iterdir() if (p / "scene.json").is_file()) \

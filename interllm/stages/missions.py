@@ -30,7 +30,7 @@ from interllm.record.recorder import McapRecorder
 from interllm.scene.graph import SceneGraph
 from interllm.sim.kinematics import RobotKinematics
 from interllm.sim.world import World
-from interllm.stages.inputs import load_grids, load_scene_and_missions, scene_ids, stage_client
+from interllm.stages.inputs import PROBE_FILE, load_grids, load_scene_and_missions, scene_ids, stage_client
 from interllm.stages.provenance import for_run_log, provenance
 from interllm.stages.validate import check_registered
 from interllm.stages.workers import Job, failed_message, merge_call_logs, usable_cores
@@ -118,6 +118,9 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     prov = provenance(cfg, resolved_config)
+    probe_path = Path(candidates_dir) / PROBE_FILE
+    if probe_path.is_file():  # the LLM server's conformance probe, made by the candidates stage
+        prov["llm_probe"] = read_json(probe_path)
     write_json(out_dir / "provenance.json", prov)
     jobs = [(p, sid, m.id) for sid in scene_ids(scenes_dir)
             for m in load_scene_and_missions(scenes_dir, sid, cfg)[1] for p in cfg.planner.names]

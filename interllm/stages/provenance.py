@@ -85,6 +85,7 @@ def for_run_log(prov: dict) -> dict:
     if isinstance(out.get("numerics"), dict):  # the machine-specific part (CPU) stays in provenance.json
         out["numerics"] = numerics.for_results(out["numerics"])
     out.pop("llama_cpp", None)
+    out.pop("llm_probe", None)  # names the server's URL; provenance.json keeps it
     cfg = out.get("config")
     if isinstance(cfg, dict):
         for key in EXECUTION_SETTINGS:

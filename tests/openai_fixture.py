@@ -1,0 +1,182 @@
+"""Servers speaking the OpenAI API on 127.0.0.1 for the tests.
+
+``FakeOpenAI``: a small server we control, for the fault cases (``GET /v1/models``,
+``POST /v1/chat/completions``, ``POST /v1/completions``). Answers are schema-valid JSON drawn from
+the request's ``response_format`` schema with the request's seed; echoed completions carry
+deterministic log-probabilities. ``fault``: ``"429_once"`` (the first chat request gets HTTP 429),
+``"hang"`` (chat requests never answer; the handler gives up after ``hang_s``), ``"bad_json"``
+(chat answers are not JSON whatever the schema), ``"no_logprobs"`` (completions without
+log-probabilities, like OpenAI's chat models).
+
+``llama_server``: llama-cpp-python's own OpenAI-compatible server on the embedded GGUF (real HTTP,
+real grammar-constrained decoding), started in a subprocess and stopped when the test ends.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import random
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.request
+from collections.abc import Iterator
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from typing import Any, Optional
+
+from interllm.core.seeding import llm_sample_seed
+from interllm.llm.testing import schema_instance
+
+MODEL = "fixture-gpt"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class FakeOpenAI:
+    """Context manager: ``with FakeOpenAI(fault=...) as srv: srv.base_url``."""
+
+    def __init__(self, fault: Optional[str] = None, hang_s: float = 30.0, fingerprint: str = "fp_fixture") -> None:
+        assert fault in (None, "429_once", "hang", "bad_json", "no_logprobs"), fault
+        self.fault, self.hang_s, self.fingerprint = fault, hang_s, fingerprint
+        self.requests: list[tuple[str, Any]] = []
+        self._429_sent = False
+        self._server: Optional[ThreadingHTTPServer] = None
+
+    @property
+    def base_url(self) -> str:
+        assert self._server is not None
+        return f"http://127.0.0.1:{self._server.server_address[1]}/v1"
+
+    def _chat_answer(self, body: dict) -> str:
+        rf = body.get("response_format") or {}
+        schema = (rf.get("json_schema") or {}).get("schema") or rf.get("schema")
+        seed = int(body.get("seed") or 0)
+        rng = random.Random(llm_sample_seed(seed, json.dumps(body.get("messages"), sort_keys=True)))
+        if self.fault == "bad_json":
+            return "I think {banana"
+        return json.dumps(schema_instance(schema, rng), sort_keys=True) if schema else "a fixture answer"
+
+    def _handler(self):
+        fake = self
+
+        class H(BaseHTTPRequestHandler):
+            def log_message(self, *a):
+                pass
+
+            def _send(self, code: int, obj: Any, headers: dict | None = None) -> None:
+                data = json.dumps(obj).encode()
+                self.send_response(code)
+                self.send_header("Content-Type", "application/json")
+                self.send_header("Content-Length", str(len(data)))
+                for k, v in (headers or {}).items():
+                    self.send_header(k, v)
+                self.end_headers()
+                self.wfile.write(data)
+
+            def do_GET(self):
+                fake.requests.append(("GET " + self.path, None))
+                if self.path.endswith("/models"):
+                    return self._send(200, {"object": "list", "data": [{"id": MODEL, "object": "model",
+                                                                        "owned_by": "fixture", "max_model_len": 4096}]})
+                return self._send(404, {"error": {"message": f"no route {self.path}"}})
+
+            def do_POST(self):
+                n = int(self.headers.get("Content-Length", 0))
+                body = json.loads(self.rfile.read(n) or b"{}")
+                fake.requests.append(("POST " + self.path, body))
+                if body.get("model") != MODEL:
+                    return self._send(404, {"error": {"message": f"model {body.get('model')!r} not found",
+                                                      "type": "invalid_request_error", "code": "model_not_found"}})
+                if self.path.endswith("/chat/completions"):
+                    if fake.fault == "429_once" and not fake._429_sent:
+                        fake._429_sent = True
+                        return self._send(429, {"error": {"message": "rate limited", "type": "rate_limit"}},
+                                          {"retry-after-ms": "10"})
+                    if fake.fault == "hang":
+                        time.sleep(fake.hang_s)
+                        return None
+                    text = fake._chat_answer(body)
+                    return self._send(200, {
+                        "id": "chatcmpl-fixture", "object": "chat.completion", "created": 0, "model": MODEL,
+                        "system_fingerprint": fake.fingerprint,
+                        "choices": [{"index": 0, "finish_reason": "stop",
+                                     "message": {"role": "assistant", "content": text}}],
+                        "usage": {"prompt_tokens": 10, "completion_tokens": 5, "total_tokens": 15}})
+                if self.path.endswith("/completions"):
+                    prompt = str(body.get("prompt", ""))
+                    words = prompt.split(" ")
+                    toks, offs, pos = [], [], 0
+                    for i, w in enumerate(words):
+                        t = w if i == 0 else " " + w
+                        toks.append(t)
+                        offs.append(pos)
+                        pos += len(t)
+                    lps = [None] + [-1.0 - llm_sample_seed(t) / 2**31 for t in toks[1:]]
+                    logprobs = None if fake.fault == "no_logprobs" else {
+                        "tokens": toks, "text_offset": offs, "token_logprobs": lps, "top_logprobs": None}
+                    return self._send(200, {
+                        "id": "cmpl-fixture", "object": "text_completion", "created": 0, "model": MODEL,
+                        "choices": [{"index": 0, "text": prompt, "finish_reason": "length", "logprobs": logprobs}],
+                        "usage": {"prompt_tokens": len(toks), "completion_tokens": 1, "total_tokens": len(toks) + 1}})
+                return self._send(404, {"error": {"message": f"no route {self.path}"}})
+
+        return H
+
+    def __enter__(self) -> FakeOpenAI:
+        self._server = ThreadingHTTPServer(("127.0.0.1", 0), self._handler())
+        self._server.daemon_threads = True
+        threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        assert self._server is not None
+        self._server.shutdown()
+        self._server.server_close()
+
+
+@contextlib.contextmanager
+def llama_server(model_path: str, alias: str = "gemma3-270m", n_ctx: int = 8192,
+                 timeout_s: float = 120.0) -> Iterator[str]:
+    """llama-cpp-python's OpenAI-compatible server on 127.0.0.1 (a free port); yields its base URL
+    and stops it (and waits for it) on exit. ``pytest.skip``s where the ``server`` extra is absent."""
+    import pytest
+
+    pytest.importorskip("llama_cpp.server", reason="llama-cpp-python's server extra is not installed")
+    port = free_port()
+    log = tempfile.TemporaryFile(mode="w+")  # the server logs a lot; a pipe nobody reads would block it
+    proc = subprocess.Popen([sys.executable, "-m", "llama_cpp.server", "--model", model_path, "--model_alias", alias,
+                             "--host", "127.0.0.1", "--port", str(port), "--n_ctx", str(n_ctx), "--n_threads", "2",
+                             "--seed", "0"], stdout=log, stderr=subprocess.STDOUT, text=True)
+    base = f"http://127.0.0.1:{port}/v1"
+    try:
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                with urllib.request.urlopen(base + "/models", timeout=2) as r:
+                    if r.status == 200:
+                        break
+            except OSError:
+                pass
+            if proc.poll() is not None:
+                log.seek(0)
+                raise RuntimeError(f"llama_cpp.server exited with {proc.returncode}: {log.read()[-2000:]}")
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"llama_cpp.server did not answer on {base} within {timeout_s} s")
+            time.sleep(0.2)
+        yield base
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=20)
+        log.close()
