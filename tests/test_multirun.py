@@ -46,3 +46,36 @@ def test_multirun_m_ablation_writes_one_pipeline_per_job_and_the_report_gathers_
     assert r.returncode == 0, r.stderr[-3000:]
     md = (out / "report.md").read_text()
     assert "M=1" in md and "M=2" in md
+
+
+def test_submitit_local_runs_two_jobs_against_one_shared_llm_cache(tmp_path):
+    """The cluster path: Hydra's submitit launcher (its local executor is the code path of
+    hydra/launcher=submitit_slurm) runs two jobs as separate processes; both ask the same prompts
+    and write one cache. Every entry must be whole, and each job must replay from it alone."""
+    import pytest
+
+    pytest.importorskip("hydra_plugins.hydra_submitit_launcher", reason="pip install -e '.[slurm]'")
+    from interllm.llm.cache import ResponseCache
+
+    sweep, cache = tmp_path / "multirun", tmp_path / "cache"
+    env = {**os.environ, "INTERLLM_PROGRESS": "0"}
+    common = ["experiment=m_ablation", "scene=tiny", "mission.n_missions=1", "planner.names=[sayplan]",
+              f"llm.cache_dir={cache}", "jobs=1", "llm.n_threads=1"]
+    r = subprocess.run([sys.executable, "-m", "pipeline.run", "-m", "hydra/launcher=submitit_local",
+                        "hydra.launcher.timeout_min=20", "hydra.launcher.cpus_per_task=1", *common, "planner.M=1,2",
+                        f"hydra.sweep.dir={sweep}"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=1200)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
+    jobs = sorted(p for p in sweep.iterdir() if p.is_dir() and (p / ".hydra").is_dir())
+    assert len(jobs) == 2 and all((j / "data" / "metrics" / "metrics.json").is_file() for j in jobs)
+    logs = sorted((sweep / ".submitit").rglob("*_log.out"))
+    assert len(logs) == 2  # two submitit jobs, two processes
+    entries = [p for p in cache.rglob("*.json") if p.name != "models.json"]
+    store = ResponseCache(cache, "replay")
+    assert entries and all(store._read(p.stem) is not None for p in entries)  # every entry whole, checksum ok
+    for m in (1, 2):  # each job's answers are all in the shared cache
+        r = subprocess.run([sys.executable, "-m", "pipeline.run", *common, f"planner.M={m}", "llm.cache_mode=replay",
+                            f"hydra.run.dir={tmp_path / f'replay{m}'}"], cwd=ROOT, env=env, capture_output=True,
+                           text=True, timeout=600)
+        assert r.returncode == 0, r.stderr[-3000:]
+        assert (tmp_path / f"replay{m}" / "data" / "metrics" / "metrics.json").read_bytes() == \
+            (jobs[m - 1] / "data" / "metrics" / "metrics.json").read_bytes()
