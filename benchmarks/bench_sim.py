@@ -34,6 +34,7 @@ from interllm.core.frames import yaw_quat_wxyz  # noqa: E402
 from interllm.scene.generator import generate_scene  # noqa: E402
 from interllm.scene.missions import generate_missions  # noqa: E402
 from interllm.sim import manipulator as man  # noqa: E402
+from interllm.sim.base_poses import window_poses  # noqa: E402
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK  # noqa: E402
 from interllm.sim.world import World  # noqa: E402
 
@@ -46,8 +47,8 @@ def ik_benchmark(world: World, n_targets: int = 40) -> None:
     for oid in fronts:
         o = scene.objects[oid]
         act = Action("pickup", o.furniture, obj=oid)
-        for pose in man.sample_base_poses(world.belief.presumed, world.scene.furniture[o.furniture], o.position[:2], act, 3, cfg):
-            jobs.append((o, pose))
+        for bp in window_poses(world.belief.presumed, world.scene.furniture[o.furniture], o.position[:2], act, 3, cfg):
+            jobs.append((o, bp.pose))
     jobs = jobs[:n_targets]
     # small model
     t = time.perf_counter()

@@ -23,6 +23,7 @@ from interllm.errors import UserError
 CACHE_MODES = ("readwrite", "replay", "off")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean")
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
+POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: committed results, the paper's (interllm/sim/base_poses.py)
 
 
 class ConfigError(UserError, ValueError):
@@ -165,6 +166,8 @@ class SimConfig:
     backoff: float = 0.15  # [m]
     max_nav_replans: int = 6  # bounded replans after collisions per navigate action
     n_l: int = 5  # sampled base poses per manipulation (paper's N_l)
+    pose_protocol: str = "window"  # how the N_l base poses are drawn: one of POSE_PROTOCOLS (sim/base_poses.py)
+    pose_reach: float = 0.8  # [m] reach protocol: base centres at most this far (horizontal) from the target
     ik_max_iters: int = 150
     ik_tol: float = 0.015  # [m] position tolerance of IK convergence
     ik_dt: float = 0.05  # [s] IK integration step
@@ -180,6 +183,9 @@ class SimConfig:
         _check(self.turn_speed > 0, "sim.turn_speed", "must be > 0")
         _check(0.005 <= self.step <= 0.5, "sim.step", "must be in [0.005, 0.5] m")
         _check(1 <= self.n_l <= 50, "sim.n_l", f"must be in [1, 50], got {self.n_l}")
+        _choice(self.pose_protocol, "sim.pose_protocol", POSE_PROTOCOLS)
+        _check(self.robot_radius < self.pose_reach <= 2.0, "sim.pose_reach",
+               f"must be in (sim.robot_radius, 2] m, got {self.pose_reach}")
         _check(0 <= self.max_nav_replans <= 50, "sim.max_nav_replans", "must be in [0, 50]")
         _check(self.ik_max_iters >= 1, "sim.ik_max_iters", "must be >= 1")
         _check(self.gamma_nav >= 0 and self.gamma_man >= 0, "sim.gamma_nav",

@@ -54,6 +54,8 @@ def test_quick_is_one_scene_one_mission_all_planners():
     ("llm.backend=chatgpt", "llm.backend", "openai"),
     ("llm.cache_mode=sometimes", "llm.cache_mode", "replay"),
     ("sim.n_l=0", "sim.n_l", "[1, 50]"),
+    ("sim.pose_protocol=random", "sim.pose_protocol", "reach"),
+    ("sim.pose_reach=0.1", "sim.pose_reach", "sim.robot_radius"),
 ])
 def test_out_of_range_values_name_the_key_and_valid_values(override, key, hint):
     with pytest.raises(ConfigError) as e:

@@ -119,19 +119,52 @@ def build_world_spec(scene: SceneGraph, robot: bool = True, sim_cfg: Optional[Si
     return spec
 
 
+def _box_near(box, footprint, margin: float) -> bool:
+    """Whether an axis-aligned box (x0, y0, x1, y1) [m] comes within ``margin`` of a footprint."""
+    x0, y0, x1, y1 = footprint
+    return box[0] <= x1 + margin and box[2] >= x0 - margin and box[1] <= y1 + margin and box[3] >= y0 - margin
+
+
+def _segment_box(a, b, thickness: float) -> tuple[float, float, float, float]:
+    h = thickness / 2
+    return (min(a[0], b[0]) - h, min(a[1], b[1]) - h, max(a[0], b[0]) + h, max(a[1], b[1]) + h)
+
+
+def local_furniture(scene: SceneGraph, furniture_id: str, neighbourhood: float) -> list[str]:
+    """The furniture of a manipulation's IK model: the target and, with ``neighbourhood`` > 0 [m],
+    every furniture whose footprint comes that close to it (sorted ids, the target first)."""
+    f = scene.furniture[furniture_id]
+    near = [g.id for g in sorted(scene.furniture.values(), key=lambda g: g.id)
+            if g.id != furniture_id and neighbourhood > 0 and _box_near(g.footprint, f.footprint, neighbourhood)]
+    return [furniture_id] + near
+
+
 def build_local_spec(scene: SceneGraph, furniture_id: str, sim_cfg: Optional[SimConfig] = None,
-                     exclude_objects: Iterable[str] = ()) -> mujoco.MjSpec:
+                     exclude_objects: Iterable[str] = (), neighbourhood: float = 0.0) -> mujoco.MjSpec:
     """A small model for manipulation IK: a fixed-base robot (six arm joints only), one
-    furniture and the objects on it (static). The base pose is set at run time through
-    ``model.body_pos`` / ``model.body_quat`` of body ``robot/base``."""
+    furniture and the objects on it (static). With ``neighbourhood`` > 0 [m] also everything the
+    arm could touch from a base pose near the furniture: the walls and door leaves (as they
+    really are) and the other furniture, with their objects, within that distance of its
+    footprint. The base pose is set at run time through ``model.body_pos`` / ``model.body_quat``
+    of body ``robot/base``."""
     if furniture_id not in scene.furniture:
         raise KeyError(f"unknown furniture {furniture_id!r}; valid: {sorted(scene.furniture)[:20]}")
     spec = new_spec(f"local_{furniture_id}")
     wb = spec.worldbody
-    add_furniture(wb, scene.furniture[furniture_id])
+    fp = scene.furniture[furniture_id].footprint
+    if neighbourhood > 0:
+        for w in sorted(scene.walls.values(), key=lambda w: w.id):
+            if _box_near(_segment_box(w.start, w.end, w.thickness), fp, neighbourhood):
+                add_segment_box(wb, f"wall/{w.id}", w.start, w.end, w.thickness, w.height, _WALL_RGBA)
+        for d in sorted(scene.doors.values(), key=lambda d: d.id):
+            seg = d.leaf_segment()
+            if seg is not None and _box_near(_segment_box(seg[0], seg[1], DOOR_LEAF_THICKNESS), fp, neighbourhood):
+                add_segment_box(wb, f"door/{d.id}", seg[0], seg[1], DOOR_LEAF_THICKNESS, DOOR_LEAF_HEIGHT, _DOOR_RGBA)
     skip = set(exclude_objects)
-    for o in sorted(scene.objects_on(furniture_id), key=lambda o: o.id):
-        if o.id not in skip:
-            add_object(wb, o, free=False)
+    for fid in local_furniture(scene, furniture_id, neighbourhood):
+        add_furniture(wb, scene.furniture[fid])
+        for o in sorted(scene.objects_on(fid), key=lambda o: o.id):
+            if o.id not in skip:
+                add_object(wb, o, free=False)
     add_robot(wb, sim_cfg, mobile=False)
     return spec

@@ -2,12 +2,14 @@
 (paper §IV-B eq. 2: the empirical manipulation cost is the mean of N_l trial costs).
 
 For an action at a furniture:
-1. sample ``sim.n_l`` base poses from the belief map: free cells at most 0.3 m beyond the
-   robot radius from the furniture's footprint, in the local area of the target (within 0.15 m
-   of the closest such cell to it), yaw facing the target; the sampler is seeded with
-   ``sim.seed + crc32(str(action))``;
+1. sample ``sim.n_l`` base poses by ``sim.pose_protocol`` (``sim/base_poses.py``): ``window``
+   (the committed results': a 15 cm window next to the target, with replacement) or ``reach``
+   (the paper's: distinct free cells within the arm's reach of the target that the robot can
+   drive to, visited in a tour whose driving time each trial includes);
 2. per pose, solve IK with mink on a small dedicated model (fixed-base robot with its six arm
-   joints, the furniture and the objects on it; built once per furniture layout and cached):
+   joints, the furniture and the objects on it — in the ``reach`` protocol also the walls, door
+   leaves and neighbouring furniture with their objects within ``IK_NEIGHBOURHOOD``; built once
+   per layout and cached):
    a pre-grasp pose 0.10 m above the target, then the grasp pose, both top-down (gripper
    approach axis pointing down), with joint limits (``mink.ConfigurationLimit``) and
    collision avoidance between the arm and the furniture / other objects
@@ -15,8 +17,9 @@ For an action at a furniture:
 3. a trial succeeds when both solves converge (position error <= ``sim.ik_tol`` [m], orientation
    error <= ``ROT_TOL`` [rad]) within ``sim.ik_max_iters`` iterations, the final arm has no
    contact with the furniture or another object, and the target is inside the gripper;
-4. trial time = joint-space path length (L2 [rad], tuck -> pre-grasp -> grasp) / joint_speed,
-   + grasp_time for a successful trial; for a failed trial the joint distance it moved;
+4. trial time = drive to the pose / base_speed (``reach`` protocol) + joint-space path length
+   (L2 [rad], tuck -> pre-grasp -> grasp) / joint_speed, + grasp_time for a successful trial;
+   for a failed trial the drive and the joint distance it moved;
 5. sr = successes / trials, t = mean trial time, c_man = γ_man·(1 − sr) + t; the action
    succeeds when any trial succeeded and is executed from the first successful pose.
 
@@ -43,19 +46,16 @@ from interllm.config import SimConfig
 from interllm.core.actions import Action, State
 from interllm.core.frames import GRIP_FRAME, WORLD_FRAME, wxyz_to_xyzw, yaw_quat_wxyz
 from interllm.core.results import ActionResult, ManipulationTrial, ObjectEvent, man_cost
-from interllm.core.seeding import pose_sampling_seed
-from interllm.scene.geometry import footprint_distance
-from interllm.scene.graph import Furniture, SceneGraph
-from interllm.scene.grid import OccupancyGrid
+from interllm.scene.graph import SceneGraph
+from interllm.sim.base_poses import BasePose, sample_base_poses
 from interllm.sim.belief import BeliefMap
-from interllm.sim.build import build_local_spec
+from interllm.sim.build import build_local_spec, local_furniture
 from interllm.sim.physics import MujocoWorld
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK
 
 PRE_GRASP_HEIGHT = 0.10  # [m] above the target
 ROT_TOL = 0.1  # [rad] orientation tolerance of IK convergence
-POSE_RING = 0.30  # [m] base poses at most this far beyond robot_radius from the footprint
-LOCAL_WINDOW = 0.15  # [m] base poses at most this much farther from the target than the closest
+IK_NEIGHBOURHOOD = 1.6  # [m] reach protocol: what the arm could touch (pose_reach 0.8 + arm reach 0.76, rounded)
 GRASP_MIN_HEIGHT = 0.02  # [m] grasp point (gripper site) at least this high above the surface
 INSIDE_MARGIN = 0.02  # [m] the gripper site may be this far outside the object's box
 PLACE_GAP = 0.02  # [m] clearance to other objects when placing
@@ -74,17 +74,30 @@ class LocalIK:
     robot_geoms: set[int]
     furniture_geoms: list[int]
     object_geoms: dict[str, int]
+    structure_geoms: list[int]  # walls and door leaves (reach protocol; else empty)
+
+    def obstacles(self, but: tuple[str, ...] = ()) -> list[int]:
+        """Every geom the arm must not touch: furniture, walls, doors, objects other than ``but``."""
+        return self.furniture_geoms + self.structure_geoms + \
+            [g for oid, g in sorted(self.object_geoms.items()) if oid not in but]
 
 
-def _layout_key(scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...]) -> tuple:
+def ik_neighbourhood(cfg: SimConfig) -> float:
+    """[m] how far around the furniture the IK model reaches (0: the furniture alone)."""
+    return IK_NEIGHBOURHOOD if cfg.pose_protocol == "reach" else 0.0
+
+
+def _layout_key(scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...], neighbourhood: float) -> tuple:
+    fids = local_furniture(scene, furniture_id, neighbourhood)
     objs = tuple(sorted((o.id, tuple(round(v, 6) for v in o.position), tuple(o.size))
-                        for o in scene.objects_on(furniture_id) if o.id not in exclude))
-    return (furniture_id, objs)
+                        for fid in fids for o in scene.objects_on(fid) if o.id not in exclude))
+    return (furniture_id, neighbourhood, objs)
 
 
 def build_local_ik(scene: SceneGraph, furniture_id: str, cfg: SimConfig, exclude: tuple[str, ...] = ()) -> LocalIK:
-    """The small IK model of a furniture's current layout (fixed-base arm, the furniture, its objects)."""
-    spec = build_local_spec(scene, furniture_id, cfg, exclude_objects=exclude)
+    """The small IK model of a furniture's current layout (fixed-base arm, the furniture, its
+    objects; in the reach protocol also what stands around it)."""
+    spec = build_local_spec(scene, furniture_id, cfg, exclude_objects=exclude, neighbourhood=ik_neighbourhood(cfg))
     model = spec.compile()
     names = {g: (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "") for g in range(model.ngeom)}
     ik = LocalIK(
@@ -92,7 +105,8 @@ def build_local_ik(scene: SceneGraph, furniture_id: str, cfg: SimConfig, exclude
         grip_site=model.site(GRIP_SITE).id, arm_geoms=[model.geom(n).id for n in ARM_GEOMS],
         robot_geoms={g for g, n in names.items() if n.startswith("robot/")},
         furniture_geoms=[g for g, n in names.items() if n.startswith("furniture/")],
-        object_geoms={n.split("/", 1)[1]: g for g, n in names.items() if n.startswith("object/")})
+        object_geoms={n.split("/", 1)[1]: g for g, n in names.items() if n.startswith("object/")},
+        structure_geoms=[g for g, n in names.items() if n.startswith(("wall/", "door/"))])
     assert model.nq == len(ARM_JOINTS), "the local IK model must have only the arm joints"
     return ik
 
@@ -181,78 +195,46 @@ def _contacts(ik: LocalIK, q: np.ndarray, obstacles: set[int]) -> bool:
     return False
 
 
-def sample_base_poses(grid: OccupancyGrid, furniture: Furniture, target_xy, action: Action, n: int,
-                      cfg: SimConfig) -> list[tuple[float, float, float]]:
-    """N base poses (x, y, yaw) around a furniture from the belief map ``grid`` (module doc, step 1)."""
-    g = grid
-    f = furniture
-    x0, y0, x1, y1 = f.footprint
-    pad = cfg.robot_radius + POSE_RING + 2 * g.resolution
-    lo = g.world_to_cell(np.array([x0 - pad, y0 - pad]))
-    hi = g.world_to_cell(np.array([x1 + pad, y1 + pad]))
-    r0, c0 = max(0, int(lo[0])), max(0, int(lo[1]))
-    r1, c1 = min(g.shape[0], int(hi[0]) + 1), min(g.shape[1], int(hi[1]) + 1)
-    if r0 >= r1 or c0 >= c1:
-        return []
-    cells = np.argwhere(g.free[r0:r1, c0:c1]) + np.array([r0, c0])
-    if len(cells) == 0:
-        return []
-    pts = g.cell_to_world(cells)
-    ring = footprint_distance(pts, f.footprint) <= cfg.robot_radius + POSE_RING
-    pts = pts[ring]
-    if len(pts) == 0:
-        return []
-    dt = np.hypot(pts[:, 0] - target_xy[0], pts[:, 1] - target_xy[1])
-    pts = pts[dt <= dt.min() + LOCAL_WINDOW + 1e-9]
-    rng = np.random.default_rng(pose_sampling_seed(cfg.seed, action))
-    idx = rng.choice(len(pts), size=n, replace=len(pts) < n)
-    out = []
-    for k in idx:
-        bx, by = float(pts[k, 0]), float(pts[k, 1])
-        out.append((bx, by, math.atan2(target_xy[1] - by, target_xy[0] - bx)))
-    return out
-
-
-def _run_trials(cfg: SimConfig, ik: LocalIK, action: Action, poses, target: np.ndarray, inside_box,
+def _run_trials(cfg: SimConfig, ik: LocalIK, poses: list[BasePose], target: np.ndarray, inside_box,
                 avoid: list[int]):
     """One trial per base pose; returns (trials, per-trial (q_pre, q_grasp) or None)."""
     trials: list[ManipulationTrial] = []
     sols: list[Optional[tuple[np.ndarray, np.ndarray]]] = []
-    obstacles = set(avoid)
-    for bx, by, byaw in poses:
-        ik.model.body_pos[ik.base_body] = (bx, by, 0.0)
-        ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(byaw)
-        rot = _topdown_rotation((bx, by), target[:2])
-        pre = target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT])
-        s1 = solve_ik(ik, TUCK, pre, rot, cfg, avoid)
-        moved = float(np.linalg.norm(s1.q - TUCK))
-        pose = (round(bx, 6), round(by, 6), round(byaw, 6))
-        if not s1.converged:
-            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, s1.reason, round(s1.pos_err, 6)))
-            sols.append(None)
-            continue
-        s2 = solve_ik(ik, s1.q, target, rot, cfg, avoid)
-        moved += float(np.linalg.norm(s2.q - s1.q))
-        if not s2.converged:
-            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, s2.reason, round(s2.pos_err, 6)))
-            sols.append(None)
-            continue
-        if _contacts(ik, s1.q, obstacles) or _contacts(ik, s2.q, obstacles):
-            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, "collision", round(s2.pos_err, 6)))
-            sols.append(None)
-            continue
-        ik.configuration.update(s2.q)
-        site = ik.configuration.data.site_xpos[ik.grip_site]
-        lo, hi = inside_box
-        if not (np.all(site >= lo - INSIDE_MARGIN) and np.all(site <= hi + INSIDE_MARGIN)):
-            trials.append(ManipulationTrial(pose, False, moved / cfg.joint_speed, "not_in_gripper",
-                                            round(s2.pos_err, 6)))
-            sols.append(None)
-            continue
-        trials.append(ManipulationTrial(pose, True, moved / cfg.joint_speed + cfg.grasp_time, "",
-                                        round(s2.pos_err, 6)))
-        sols.append((s1.q, s2.q))
+    for bp in poses:
+        trial, sol = _trial(cfg, ik, bp, target, inside_box, avoid)
+        trials.append(trial)
+        sols.append(sol)
     return trials, sols
+
+
+def _trial(cfg: SimConfig, ik: LocalIK, bp: BasePose, target: np.ndarray, inside_box, avoid: list[int]):
+    """One trial from base pose ``bp``: drive there, pre-grasp and grasp IK, contact and grip checks.
+    Returns (ManipulationTrial, (q_pre, q_grasp) or None); time [s] = drive + arm motion (+ grasp)."""
+    pose = (round(bp.x, 6), round(bp.y, 6), round(bp.yaw, 6))
+    drive_s = bp.drive / cfg.base_speed
+    if not bp.free:
+        return ManipulationTrial(pose, False, 0.0, "no_free_pose", 0.0), None
+    ik.model.body_pos[ik.base_body] = (bp.x, bp.y, 0.0)
+    ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(bp.yaw)
+    rot = _topdown_rotation((bp.x, bp.y), target[:2])
+    s1 = solve_ik(ik, TUCK, target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT]), rot, cfg, avoid)
+    moved = float(np.linalg.norm(s1.q - TUCK))
+    if not s1.converged:
+        return ManipulationTrial(pose, False, drive_s + moved / cfg.joint_speed, s1.reason, round(s1.pos_err, 6)), None
+    s2 = solve_ik(ik, s1.q, target, rot, cfg, avoid)
+    moved += float(np.linalg.norm(s2.q - s1.q))
+    t_fail = drive_s + moved / cfg.joint_speed
+    if not s2.converged:
+        return ManipulationTrial(pose, False, t_fail, s2.reason, round(s2.pos_err, 6)), None
+    obstacles = set(avoid)
+    if _contacts(ik, s1.q, obstacles) or _contacts(ik, s2.q, obstacles):
+        return ManipulationTrial(pose, False, t_fail, "collision", round(s2.pos_err, 6)), None
+    ik.configuration.update(s2.q)
+    site = ik.configuration.data.site_xpos[ik.grip_site]
+    lo, hi = inside_box
+    if not (np.all(site >= lo - INSIDE_MARGIN) and np.all(site <= hi + INSIDE_MARGIN)):
+        return ManipulationTrial(pose, False, t_fail, "not_in_gripper", round(s2.pos_err, 6)), None
+    return ManipulationTrial(pose, True, t_fail + cfg.grasp_time, "", round(s2.pos_err, 6)), (s1.q, s2.q)
 
 
 def _precondition_fail(cfg: SimConfig, action: Action, reason: str) -> ActionResult:
@@ -348,7 +330,7 @@ class Manipulator:
 
     def local_ik(self, scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...] = ()) -> LocalIK:
         """The small IK model for a furniture's current layout (cached)."""
-        key = _layout_key(scene, furniture_id, exclude)
+        key = _layout_key(scene, furniture_id, exclude, ik_neighbourhood(self.cfg))
         hit = self._ik.get(key)
         if hit is not None:
             return hit
@@ -357,6 +339,12 @@ class Manipulator:
             self._ik.pop(next(iter(self._ik)))
         self._ik[key] = ik
         return ik
+
+    def _poses(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, action: Action,
+               target: np.ndarray) -> list[BasePose]:
+        x, y, _ = physics.robot_pose
+        return sample_base_poses(self.cfg, belief.presumed, belief.true, scene.furniture[action.furniture],
+                                 target[:2], (x, y), action, self.cfg.n_l)
 
     def pickup(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
                action: Action) -> ActionResult:
@@ -380,12 +368,11 @@ class Manipulator:
         target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
         half = np.asarray(o.size, dtype=float) / 2
         inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
-        poses = sample_base_poses(belief.presumed, scene.furniture[action.furniture], target[:2], action, cfg.n_l, cfg)
+        poses = self._poses(physics, belief, scene, action, target)
         if not poses:
             return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
         ik = self.local_ik(scene, action.furniture)
-        avoid = ik.furniture_geoms + [g for oid, g in sorted(ik.object_geoms.items()) if oid != action.obj]
-        trials, sols = _run_trials(cfg, ik, action, poses, target, inside, avoid)
+        trials, sols = _run_trials(cfg, ik, poses, target, inside, ik.obstacles(but=(action.obj,)))
         res, k = _result(cfg, action, trials, "no collision-free grasp")
         if k < 0:
             res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
@@ -398,7 +385,7 @@ class Manipulator:
             res.object_events.append(ObjectEvent(t, action.obj, GRIP_FRAME, tuple(float(v) for v in pos),
                                                  wxyz_to_xyzw(quat)))
 
-        samples = _execute_motion(physics, poses[k], q_pre, q_grasp, clock, res.time, grasp)
+        samples = _execute_motion(physics, poses[k].pose, q_pre, q_grasp, clock, res.time, grasp)
         physics.forward()
         res.trajectory = physics.make_trajectory(samples)
         return res
@@ -426,12 +413,11 @@ class Manipulator:
         target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
         half = np.asarray(o.size, dtype=float) / 2
         inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
-        poses = sample_base_poses(belief.presumed, scene.furniture[action.furniture], target[:2], action, cfg.n_l, cfg)
+        poses = self._poses(physics, belief, scene, action, target)
         if not poses:
             return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
         ik = self.local_ik(scene, action.furniture, exclude=(action.obj,))
-        avoid = ik.furniture_geoms + [g for _, g in sorted(ik.object_geoms.items())]
-        trials, sols = _run_trials(cfg, ik, action, poses, target, inside, avoid)
+        trials, sols = _run_trials(cfg, ik, poses, target, inside, ik.obstacles())
         res, k = _result(cfg, action, trials, "no collision-free placing pose")
         if k < 0:
             res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
@@ -445,7 +431,7 @@ class Manipulator:
             physics.set_object_pose(action.obj, pos)
             res.object_events.append(ObjectEvent(t, action.obj, WORLD_FRAME, pos, (0.0, 0.0, 0.0, 1.0)))
 
-        samples = _execute_motion(physics, poses[k], q_pre, q_grasp, clock, res.time, release)
+        samples = _execute_motion(physics, poses[k].pose, q_pre, q_grasp, clock, res.time, release)
         physics.forward()
         res.trajectory = physics.make_trajectory(samples)
         return res

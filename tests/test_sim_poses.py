@@ -1,0 +1,154 @@
+"""Manipulation as the paper samples it (``sim.pose_protocol=reach``): N_l distinct free base
+poses within the arm's reach that the robot can drive to, each a full trial with everything
+within reach in the IK model. Tiny scenes built here; expectations worked out from the arm's
+dimensions (``sim/robot.py``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from interllm.config import SimConfig
+from interllm.core.actions import Action
+from interllm.scene.graph import Door, Furniture, Mission, Room, SceneGraph, SceneObject, Wall
+from interllm.sim import manipulator as man
+from interllm.sim.base_poses import BasePose, reach_poses
+from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, UPPER_ARM, WRIST_TO_GRIP
+from interllm.sim.world import World
+
+FRONT = (2.0, 2.25)  # a mug 0.1 m behind the counter's front edge (y = 2.15)
+BACK = (2.0, 2.85)  # a mug 0.7 m behind it, against the wall
+
+
+def kitchen() -> SceneGraph:
+    """One 4 x 3 m room; a deep counter (0.8 m, top at 0.9 m) against the north wall."""
+    sg = SceneGraph(id="kitchen", seed=0)
+    sg.rooms["k"] = Room("k", "kitchen", ((0, 0), (4, 0), (4, 3), (0, 3)))
+    for i, (a, b) in enumerate([((0, 0), (4, 0)), ((4, 0), (4, 3)), ((4, 3), (0, 3)), ((0, 3), (0, 0))]):
+        sg.walls[f"wall_{i}"] = Wall(f"wall_{i}", a, b, 0.1, 2.5)
+    sg.furniture["counter_1"] = Furniture("counter_1", "counter", "k", (2.0, 2.55), (1.2, 0.8, 0.9))
+    sg.objects["mug_front"] = SceneObject("mug_front", "mug", "counter_1", (*FRONT, 0.95), (0.08, 0.08, 0.1))
+    sg.objects["mug_back"] = SceneObject("mug_back", "mug", "counter_1", (*BACK, 0.95), (0.08, 0.08, 0.1))
+    return sg
+
+
+def reach_world(n_l: int = 20) -> World:
+    w = World(kitchen(), SimConfig(pose_protocol="reach", n_l=n_l))
+    w.reset(Mission("m", "kitchen", (2.0, 1.5, 0.0), "counter_1", ()))
+    return w
+
+
+def horizontal_reach(target_z: float) -> float:
+    """[m] farthest base-to-target distance from which the wrist, held WRIST_TO_GRIP plus the
+    pre-grasp height above a top-down target, is within the arm's two links of the shoulder."""
+    dz = target_z + man.PRE_GRASP_HEIGHT + WRIST_TO_GRIP - SHOULDER_HEIGHT
+    return math.sqrt((UPPER_ARM + FOREARM) ** 2 - dz ** 2) + SHOULDER_FORWARD
+
+
+def test_reach_poses_are_distinct_free_within_reach_and_driven_to():
+    w = reach_world()
+    act = Action("pickup", "counter_1", obj="mug_front")
+    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg)
+    assert len(poses) == 20 and all(p.free for p in poses)
+    assert len({(p.x, p.y) for p in poses}) == 20  # without replacement
+    for p in poses:
+        rc = w.belief.true.world_to_cell(np.array([p.x, p.y]))
+        assert w.belief.true.is_free(rc) and w.belief.presumed.is_free(rc)
+        assert math.hypot(p.x - FRONT[0], p.y - FRONT[1]) <= w.cfg.pose_reach + 1e-9
+        assert p.yaw == pytest.approx(math.atan2(FRONT[1] - p.y, FRONT[0] - p.x))
+    # a tour: each leg is at least the straight line from the previous stop
+    prev = (2.0, 1.5)
+    for p in poses:
+        assert p.drive >= math.hypot(p.x - prev[0], p.y - prev[1]) - 0.05
+        prev = (p.x, p.y)
+    assert poses == reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg)
+
+
+def test_a_pose_in_a_pocket_is_never_drawn():
+    """Free cells within reach but walled off from the robot on its map are not poses."""
+    w = reach_world()
+    g = w.belief.presumed
+    # a 0.3 x 0.3 m free patch at x in [1.45, 1.75], y in [1.45, 1.75] fenced by a 1-cell ring
+    fence = np.zeros(g.shape, dtype=bool)
+    lo, hi = g.world_to_cell(np.array([1.40, 1.40])), g.world_to_cell(np.array([1.80, 1.80]))
+    fence[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1] = True
+    fence[lo[0] + 1:hi[0], lo[1] + 1:hi[1]] = False
+    g.occupied |= fence
+    patch = [(r, c) for r in range(lo[0] + 1, hi[0]) for c in range(lo[1] + 1, hi[1])]
+    pts = g.cell_to_world(np.array(patch))
+    assert all(g.is_free(rc) for rc in patch)
+    assert (np.hypot(pts[:, 0] - FRONT[0], pts[:, 1] - FRONT[1]) <= w.cfg.pose_reach).any()
+    act = Action("pickup", "counter_1", obj="mug_front")
+    poses = reach_poses(g, w.belief.true, FRONT, (2.0, 1.5), act, 50, w.cfg)
+    drawn = {tuple(int(v) for v in g.world_to_cell(np.array([p.x, p.y]))) for p in poses if p.free}
+    assert len(drawn) == 50 and not drawn & set(patch)
+
+
+def test_an_object_at_the_back_of_a_deep_counter_succeeds_from_exactly_the_poses_that_reach_it():
+    w = reach_world()
+    reach = horizontal_reach(0.95)  # 0.54 m for this counter
+    front = w.execute(Action("pickup", "counter_1", obj="mug_front"))
+    assert 0.0 < front.success_rate < 1.0, [t.reason for t in front.trials]
+    assert front.success_rate == sum(t.success for t in front.trials) / w.cfg.n_l
+    for t in front.trials:
+        d = math.hypot(t.base_pose[0] - FRONT[0], t.base_pose[1] - FRONT[1])
+        if d <= reach - 0.02:
+            assert t.success, (d, t)
+        if d >= reach + 0.03:
+            assert not t.success, (d, t)
+    # executed from the first successful pose of the tour: the robot stands there now
+    first = next(t for t in front.trials if t.success)
+    assert w.robot_pose[:2] == pytest.approx(first.base_pose[:2])
+    # the back of the counter is 0.95 m from the nearest free cell: no pose within reach at all
+    w2 = reach_world()
+    back = w2.execute(Action("pickup", "counter_1", obj="mug_back"))
+    assert not back.success and back.success_rate == 0.0
+    assert {t.reason for t in back.trials} == {"no_free_pose"} and len(back.trials) == w2.cfg.n_l
+
+
+def test_trial_time_includes_the_drive_to_the_pose():
+    w = reach_world()
+    act = Action("pickup", "counter_1", obj="mug_front")
+    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, w.robot_pose[:2], act, w.cfg.n_l, w.cfg)
+    res = w.execute(act)
+    assert [t.base_pose for t in res.trials] == [tuple(round(v, 6) for v in p.pose) for p in poses]
+    for p, t in zip(poses, res.trials, strict=True):
+        assert t.time >= p.drive / w.cfg.base_speed + (w.cfg.grasp_time if t.success else 0.0)
+    assert res.time == pytest.approx(np.mean([t.time for t in res.trials]))
+
+
+def two_rooms() -> SceneGraph:
+    """Rooms a | b split by the wall x = 4 (door at y in [3.0, 3.8]); a side table in b against
+    the wall with a cup 0.2 m from it."""
+    sg = SceneGraph(id="two", seed=0)
+    sg.rooms["a"] = Room("a", "kitchen", ((0, 0), (4, 0), (4, 4), (0, 4)))
+    sg.rooms["b"] = Room("b", "living_room", ((4, 0), (8, 0), (8, 4), (4, 4)))
+    segs = [((0, 0), (8, 0)), ((0, 4), (8, 4)), ((0, 0), (0, 4)), ((8, 0), (8, 4)), ((4, 0), (4, 3.0)),
+            ((4, 3.8), (4, 4))]
+    for i, (a, b) in enumerate(segs):
+        sg.walls[f"wall_{i}"] = Wall(f"wall_{i}", a, b, 0.1, 2.5)
+    sg.doors["door_1"] = Door("door_1", ("a", "b"), (4, 3.4), "y", 0.8)
+    sg.furniture["table_1"] = Furniture("table_1", "side_table", "b", (4.4, 1.5), (0.6, 0.6, 0.75))
+    sg.objects["cup_1"] = SceneObject("cup_1", "cup", "table_1", (4.2, 1.5, 0.8), (0.08, 0.08, 0.1))
+    return sg
+
+
+def test_an_arm_through_a_wall_is_a_failed_trial():
+    """From room a, 0.5 m from the cup, the arm reaches it only through the wall: the trial
+    succeeds in an IK model without walls and fails in the reach protocol's, which has them."""
+    sg = two_rooms()
+    o = sg.objects["cup_1"]
+    half = np.asarray(o.size) / 2
+    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, man.GRASP_MIN_HEIGHT])
+    target = np.asarray(o.position, dtype=float)
+    pose = BasePose(3.7, 1.5, 0.0)
+    outcomes = {}
+    for protocol in ("window", "reach"):
+        cfg = SimConfig(pose_protocol=protocol)
+        ik = man.build_local_ik(sg, "table_1", cfg)
+        trial, _ = man._trial(cfg, ik, pose, target, inside, ik.obstacles(but=("cup_1",)))
+        outcomes[protocol] = (trial.success, len(ik.structure_geoms))
+    assert outcomes["window"] == (True, 0)  # the old model: no walls, the arm passes through
+    assert outcomes["reach"][0] is False and outcomes["reach"][1] >= 1
