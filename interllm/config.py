@@ -142,6 +142,10 @@ class PlannerConfig:
     epsilon_d: float = 1.0  # [m] path-overlap distance scale of P°
     moma_max_replans: int = 3  # MoMa-LLM replans after execution failures, per command
     sayplan_max_iterations: int = 3  # SayPlan symbolic-simulator replanning rounds
+    # false (the committed results): SayPlan and MoMa-LLM take every command's plans from the
+    # mission-start candidates; true: like Inter-LLM, they propose commands 2.. from the current
+    # scene and state, excluding delivered objects (only Inter-LLM's prompts carry known costs)
+    fair_baselines: bool = False
 
     def validate(self) -> None:
         _check(len(self.names) >= 1, "planner.names", "must list at least one planner")
@@ -165,6 +169,10 @@ class SimConfig:
     recovery_time: float = 3.0  # [s] backing off after a collision
     backoff: float = 0.15  # [m]
     max_nav_replans: int = 6  # bounded replans after collisions per navigate action
+    # true (the committed results): cells where the robot collided stay blocked on its map for the
+    # rest of the mission, for every planner; false: each navigate starts from the prior map (the
+    # paper: what a planner learns of navigation is what its known costs record)
+    persistent_map: bool = True
     n_l: int = 5  # sampled base poses per manipulation (paper's N_l)
     pose_protocol: str = "window"  # how the N_l base poses are drawn: one of POSE_PROTOCOLS (sim/base_poses.py)
     pose_reach: float = 0.8  # [m] reach protocol: base centres at most this far (horizontal) from the target

@@ -19,7 +19,7 @@ from interllm.core.seeding import planning_seed
 from interllm.llm.types import LLMRequest, LLMResponse, ScoreRequest, ScoreResponse
 from interllm.planners.world_view import WorldView
 from interllm.planning.memory import KnownCosts
-from interllm.planning.proposers import Proposer
+from interllm.planning.proposers import Exclusions, Proposer
 from interllm.scene.graph import Command, Mission
 
 LLM_TOPIC = "/llm/calls"
@@ -96,3 +96,21 @@ class PlannerContext:
 
     def candidates_for(self, command: Command) -> list[Plan]:
         return list(self.initial_candidates.get(command.id, []))
+
+    def is_first_command(self, command: Command) -> bool:
+        return bool(self.mission.commands) and command.id == self.mission.commands[0].id
+
+    def propose_from_state(self, command: Command, known: KnownCosts | None = None) -> list[Plan]:
+        """M new candidates from the current scene graph and state, excluding the objects earlier
+        commands delivered; ``known``: the known costs the prompts carry (Inter-LLM only)."""
+        w = self.world
+        return self.proposer.plans.propose(w.scene, w.state, command, self.cfg.M, self.n_objects(command),
+                                           known=known, exclude=Exclusions(tuple(sorted(self.delivered))),
+                                           seed=self.seed("propose", command.id), context=self.labels(command))
+
+    def baseline_candidates(self, command: Command) -> tuple[list[Plan], str]:
+        """(candidates, source) of a baseline: the shared initial ones for the first command, and for
+        every command unless ``planner.fair_baselines``; then proposed from the current state."""
+        if self.cfg.fair_baselines and not self.is_first_command(command):
+            return self.propose_from_state(command), "reproposed"
+        return self.candidates_for(command), "initial"

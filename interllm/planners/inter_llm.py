@@ -33,7 +33,6 @@ from interllm.planning.costs import (
     estimate_navigation,
     plan_total,
 )
-from interllm.planning.proposers import Exclusions
 from interllm.scene.graph import Command
 
 
@@ -52,10 +51,7 @@ class InterLLMPlanner:
     def propose(self, command: Command, ctx: PlannerContext) -> list[Plan]:
         if self._n_commands == 0 and ctx.candidates_for(command):
             return ctx.candidates_for(command)
-        world = ctx.world
-        return ctx.proposer.plans.propose(world.scene, world.state, command, ctx.cfg.M, ctx.n_objects(command),
-                                          known=ctx.memory, exclude=Exclusions(tuple(sorted(ctx.delivered))),
-                                          seed=ctx.seed("propose", command.id), context=ctx.labels(command))
+        return ctx.propose_from_state(command, known=ctx.memory)
 
     # ---- estimation ---------------------------------------------------------------------
     def estimate(self, plan: Plan, command: Command, ctx: PlannerContext, paths: dict, labels: dict,

@@ -1,7 +1,8 @@
 """MoMa-LLM baseline (Honerkamp et al. 2024) as the paper describes it.
 
-Closed-loop without cost look-ahead: executes the first feasible shared initial candidate (after
-the bounded feasibility repair, planner.max_regenerations). After an execution failure (pickup
+Closed-loop without cost look-ahead: executes the first feasible shared initial candidate (with
+``planner.fair_baselines``, for commands after the first: of M candidates proposed from the current
+state, without known costs) after the bounded feasibility repair (planner.max_regenerations). After an execution failure (pickup
 failing on every sampled pose, blocked path, action not executable) it asks the proposer to
 replan the rest of the command from the failure text, at most ``planner.moma_max_replans`` times
 per command, excluding the failed object (pickup or navigation to it failed) or the failed target
@@ -31,9 +32,9 @@ class MoMaLLMPlanner:
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
         ctx.start_command()
         result = new_result(command)
-        proposed = ctx.candidates_for(command)
+        proposed, source = ctx.baseline_candidates(command)
         ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
-                                                   "source": "initial"})
+                                                   "source": source})
         selected = first_feasible(ctx, command, proposed, ctx.cfg.max_regenerations, result)
         if selected is None:
             result.notes.append("no feasible candidate: nothing executed for this command")

@@ -1,6 +1,8 @@
 """SayPlan baseline (Rana et al. 2023) as the paper describes it.
 
-Plans from semantics alone: the shared initial candidates are taken in order; each is checked
+Plans from semantics alone: the shared initial candidates (with ``planner.fair_baselines``, for
+commands after the first: M candidates proposed from the current state, without known costs) are
+taken in order; each is checked
 against the symbolic scene-graph simulator (``planning.feasibility``) and replanned from its
 violation feedback up to ``planner.sayplan_max_iterations`` rounds; the first feasible one is
 executed open-loop. No execution costs are used, and there is no replanning after an execution
@@ -24,9 +26,9 @@ class SayPlanPlanner:
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
         ctx.start_command()
         result = new_result(command)
-        proposed = ctx.candidates_for(command)
+        proposed, source = ctx.baseline_candidates(command)
         ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
-                                                   "source": "initial"})
+                                                   "source": source})
         if not proposed:
             result.notes.append(f"no initial candidates for command {command.id!r}")
             return finish(ctx, result)

@@ -1,7 +1,8 @@
 """``BeliefMap``: the robot's map of the house (paper §IV-B).
 
 ``presumed``: every door presumed open, plus the cells where collisions were felt during the
-mission (``block_cells``, ``block_box``); ``true``: door leaves as they are (the reference, never
+mission (``block_cells``, ``block_box``; with ``sim.persistent_map=false`` only during the
+navigate action that felt them: ``forget``); ``true``: door leaves as they are (the reference, never
 used for planning). Grid search runs on the presumed map; ``anchor`` gives the goal point of a
 navigation to a furniture. ``reset`` forgets what a mission learned.
 """
@@ -40,11 +41,18 @@ class BeliefMap:
         self._anchors: dict[str, tuple[float, float]] = {}
         self.presumed = presumed.copy()
         self.search = GridSearch(self.presumed)
+        self.learned = 0  # cells blocked since the last reset
 
     def reset(self) -> None:
-        """The initial presumed map again (a new mission)."""
+        """The initial presumed map again (a new mission, or a navigate without a persistent map)."""
         self.presumed = self.initial.copy()
         self.search = GridSearch(self.presumed)
+        self.learned = 0
+
+    def forget(self) -> None:
+        """Forget the cells collisions blocked (cheap when there are none)."""
+        if self.learned:
+            self.reset()
 
     def anchor(self, furniture_id: str) -> tuple[float, float]:
         """Goal point [m] for navigating to a furniture: the free cell of the initial presumed
@@ -93,7 +101,9 @@ class BeliefMap:
         m = np.hypot(ctr[..., 0] - xy_center[0], ctr[..., 1] - xy_center[1]) <= radius
         before = int(g.occupied[r0:r1, c0:c1].sum())
         g.occupied[r0:r1, c0:c1] |= m
-        return int(g.occupied[r0:r1, c0:c1].sum()) - before
+        changed = int(g.occupied[r0:r1, c0:c1].sum()) - before
+        self.learned += changed
+        return changed
 
     def block_box(self, x0: float, y0: float, x1: float, y1: float) -> int:
         """Mark the presumed cells of an axis-aligned box [m] as occupied; returns how many changed."""
@@ -106,4 +116,6 @@ class BeliefMap:
             return 0
         before = int(g.occupied[r0:r1 + 1, c0:c1 + 1].sum())
         g.occupied[r0:r1 + 1, c0:c1 + 1] = True
-        return int(g.occupied[r0:r1 + 1, c0:c1 + 1].sum()) - before
+        changed = int(g.occupied[r0:r1 + 1, c0:c1 + 1].sum()) - before
+        self.learned += changed
+        return changed

@@ -87,6 +87,8 @@ class World:
         t0 = self.clock
         if action.kind == "navigate":
             res = self.navigator.navigate(self.physics, self.belief, self.scene, t0, action)
+            if not self.cfg.persistent_map:
+                self.belief.forget()  # replanned around what it hit within this action only
         elif action.kind == "pickup":
             res = self.manipulator.pickup(self.physics, self.belief, self.scene, self.state, t0, action)
         else:
