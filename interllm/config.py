@@ -111,6 +111,10 @@ class LLMConfig:
     cache_dir: str = "data/llm_cache"
     proposal_mode: str = "score"  # how candidates are proposed (interllm.planning.proposers.PLAN_PROPOSERS)
     cost_inference_mode: str = "score"  # manipulation-cost inference (...proposers.COST_INFERRERS)
+    # cost-inference prompts say where on its furniture each object is (scene/placement.py): the
+    # furniture instance, depth from the open side, surface height, clearance, size (false: the
+    # committed results' prompts, furniture category and room only)
+    placement_attributes: bool = False
     constrain_names: bool = True  # enumerate valid scene-graph names in schemas
     repair_retries: int = 2  # re-asks after malformed output
     calibrate: bool = True  # score calibration against a content-free prompt

@@ -19,7 +19,8 @@ from interllm.core.results import ActionResult
 from interllm.planners.base import CommandResult
 from interllm.planners.context import PlannerContext
 from interllm.planning.feasibility import action_violations
-from interllm.scene.graph import Command
+from interllm.scene.graph import Command, SceneGraph
+from interllm.scene.placement import Placement, placement_of, surface_placement
 
 Replanner = Callable[[Optional[ActionResult], str, Action, list[str]], Optional[Plan]]
 
@@ -38,11 +39,24 @@ def segments(plan: Plan) -> list[list[Action]]:
     return out
 
 
+def measured_placement(scene: SceneGraph, action: Action, res: ActionResult) -> Optional[Placement]:
+    """Where a manipulation's object was as it was measured (after ``world.execute``): a pickup's
+    object still stands where it was taken from in the scene graph; a placed one stands at its
+    new spot; a failed place has only the target surface."""
+    if action.furniture not in scene.furniture or (action.obj or "") not in scene.objects:
+        return None
+    if action.kind == "pickup":
+        return placement_of(scene, action.obj) if scene.objects[action.obj].furniture == action.furniture else None
+    if action.kind == "place":
+        return placement_of(scene, action.obj) if res.success else surface_placement(scene, action.furniture)
+    return None
+
+
 def execute(ctx: PlannerContext, action: Action, command: Command, result: CommandResult) -> ActionResult:
     """Run one action, remember its cost under the state before it, log it."""
     before: State = ctx.world.state
     res = ctx.world.execute(action)
-    ctx.memory.add_result(res, before)
+    ctx.memory.add_result(res, before, measured_placement(ctx.world.scene, action, res))
     result.actions.append(res)
     ctx.recorder.action(res, {"planner": ctx.planner, "scene": ctx.mission.scene_id,
                               "mission": ctx.mission.id, "command": command.id})

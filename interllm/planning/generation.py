@@ -23,6 +23,7 @@ from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
 from interllm.planning.plans import parse_plan, plan_schema
 from interllm.planning.text import (
+    action_placement,
     describe_manipulation,
     known_manipulations_text,
     plan_text,
@@ -105,11 +106,12 @@ def infer_cost_by_generation(client, action: Action, scene: SceneGraph, known: K
                              context: tuple = ()) -> str:
     """ĉ^text(a_man) in {easy, medium, hard, unknown}, written by the LLM under COST_SCHEMA. With no
     measured manipulation yet there is nothing to compare with: "unknown" without an LLM call."""
-    known_text = known_manipulations_text(known, scene)
+    known_text = known_manipulations_text(known, scene, cfg.placement_attributes)
     if not known_text:
         return "unknown"
     tpl = load_template("cost_inference")
-    text = tpl.render(known=known_text, action=describe_manipulation(action, scene))
+    where = action_placement(action, scene) if cfg.placement_attributes else None
+    text = tpl.render(known=known_text, action=describe_manipulation(action, scene, where))
     resp = _complete(client, LLMRequest(purpose="cost_inference", messages=(Message("user", text),),
                                         schema=COST_SCHEMA, options=_options(cfg), template=tpl.name,
                                         context=context))

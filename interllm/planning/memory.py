@@ -11,12 +11,15 @@ Failed actions are recorded too: their cost carries the collisions / failure rat
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
 from interllm.core.actions import Action, State
 from interllm.core.results import ActionResult
+
+if TYPE_CHECKING:  # only the type: the aggregate stage loads this module without the scene package
+    from interllm.scene.placement import Placement
 
 
 @dataclass
@@ -38,10 +41,13 @@ class ManRecord:
     state: str
     cost: float  # c^maned (fused)
     count: int = 1
+    placement: Optional[Placement] = None  # where the object was when measured (llm.placement_attributes)
 
     def to_dict(self) -> dict:
-        return {"action": self.action.to_dict(), "state": self.state, "cost": float(self.cost),
-                "count": self.count}
+        d = {"action": self.action.to_dict(), "state": self.state, "cost": float(self.cost), "count": self.count}
+        if self.placement is not None:
+            d["placement"] = self.placement.to_dict()
+        return d
 
 
 class KnownCosts:
@@ -76,26 +82,29 @@ class KnownCosts:
         self._nav[key] = rec
         return rec
 
-    def add_manipulation(self, action: Action, state: State, cost: float) -> ManRecord:
+    def add_manipulation(self, action: Action, state: State, cost: float,
+                         placement: Optional[Placement] = None) -> ManRecord:
         key = (str(action), state.describe())
         old = self._man.get(key)
         if old is None:
-            rec = ManRecord(action, key[1], float(cost))
+            rec = ManRecord(action, key[1], float(cost), placement=placement)
         else:
-            rec = ManRecord(action, key[1], (float(cost) + old.cost) / 2.0, old.count + 1)
+            rec = ManRecord(action, key[1], (float(cost) + old.cost) / 2.0, old.count + 1, old.placement or placement)
         self._man[key] = rec
         return rec
 
-    def add_result(self, result: ActionResult, state_before: State) -> Optional[NavRecord | ManRecord]:
-        """Store an executed action's empirical cost. A navigation without any path is skipped
-        (returns None): there is nothing to compare presumed paths with."""
+    def add_result(self, result: ActionResult, state_before: State,
+                   placement: Optional[Placement] = None) -> Optional[NavRecord | ManRecord]:
+        """Store an executed action's empirical cost (with a manipulation, where its object was:
+        ``placement``). A navigation without any path is skipped (returns None): there is nothing
+        to compare presumed paths with."""
         a = result.action
         if a.kind == "navigate":
             path = result.driven_path if result.driven_path is not None else result.presumed_path
             if path is None or len(path) == 0:
                 return None
             return self.add_navigation(a, state_before, path, result.cost)
-        return self.add_manipulation(a, state_before, result.cost)
+        return self.add_manipulation(a, state_before, result.cost, placement)
 
     def manipulation_cost(self, action: Action, state: State) -> Optional[float]:
         rec = self._man.get((str(action), state.describe()))

@@ -37,7 +37,13 @@ from interllm.llm.types import ScoreRequest
 from interllm.planning.costs import COST_LABELS
 from interllm.planning.memory import KnownCosts
 from interllm.planning.plans import assemble_plan
-from interllm.planning.text import describe_manipulation, known_costs_text, known_manipulations_text, words
+from interllm.planning.text import (
+    action_placement,
+    describe_manipulation,
+    known_costs_text,
+    known_manipulations_text,
+    words,
+)
 from interllm.scene.graph import Command, SceneGraph
 
 CALIBRATION_COMMAND = "N/A"
@@ -231,10 +237,10 @@ def infer_cost_by_scores(client, action: Action, scene: SceneGraph, known: Known
     """ĉ^text(a_man) in {easy, medium, hard, unknown} by scoring the four labels and sampling one
     at the temperature. With no measured manipulation yet there is nothing to compare with:
     "unknown" is returned without an LLM call."""
-    known_text = known_manipulations_text(known, scene)
+    known_text = known_manipulations_text(known, scene, cfg.placement_attributes)
     if not known_text:
         return "unknown"
-    desc = describe_manipulation(action, scene)
+    desc = describe_manipulation(action, scene, action_placement(action, scene) if cfg.placement_attributes else None)
     tpl = load_template("score_cost")
     scores = _score(client, "score_cost", tpl, {"known": known_text, "action": desc},
                     [f" {c}" for c in COST_LABELS], cfg.calibrate, context, "action",

@@ -9,6 +9,7 @@ from interllm.core.actions import Action, Plan, State
 from interllm.planning.costs import encode_cost
 from interllm.planning.memory import KnownCosts
 from interllm.scene.graph import Command, SceneGraph
+from interllm.scene.placement import Placement, placement_of, placement_text, surface_placement
 
 
 def words(s: str) -> str:
@@ -21,8 +22,10 @@ def scene_json(scene: SceneGraph) -> str:
     return json.dumps(scene.to_prompt_dict(), sort_keys=True, separators=(",", ":"))
 
 
-def describe_manipulation(action: Action, scene: SceneGraph) -> str:
-    """'pickup mug (for drinking) from the desk in the office' — location, category, usage."""
+def describe_manipulation(action: Action, scene: SceneGraph, placement: Optional[Placement] = None) -> str:
+    """'pickup mug (for drinking) from the desk in the office' — location, category, usage. With a
+    ``placement`` (``llm.placement_attributes``) the location is the furniture instance and the
+    object's place on it: 'from desk_1, the desk in the office (0.42 m in from the open side, ...)'."""
     o = scene.objects.get(action.obj or "")
     f = scene.furniture.get(action.furniture)
     cat = words(o.category) if o else str(action.obj)
@@ -32,16 +35,30 @@ def describe_manipulation(action: Action, scene: SceneGraph) -> str:
         loc = f"the {words(f.category)} in the {words(room.type) if room else f.room}"
     else:
         loc = f"the {action.furniture}"
+    if placement is not None:
+        loc = f"{action.furniture}, {loc} ({placement_text(placement)})"
     prep = "from" if action.kind == "pickup" else "on"
     return f"{action.kind} {cat}{usage} {prep} {loc}"
 
 
-def known_manipulations_text(known: Optional[KnownCosts], scene: SceneGraph) -> str:
-    """The measured manipulations with their cost class, one per line ('' when none)."""
+def action_placement(action: Action, scene: SceneGraph) -> Optional[Placement]:
+    """Where a manipulation not yet measured would act: the object where it stands (pickup), the
+    target surface (place); None for an action the scene cannot place."""
+    if action.furniture not in scene.furniture:
+        return None
+    if action.kind == "pickup" and (action.obj or "") in scene.objects \
+            and scene.objects[action.obj].furniture == action.furniture:
+        return placement_of(scene, action.obj)
+    return surface_placement(scene, action.furniture)
+
+
+def known_manipulations_text(known: Optional[KnownCosts], scene: SceneGraph, placement: bool = False) -> str:
+    """The measured manipulations with their cost class, one per line ('' when none); with
+    ``placement`` each says where its object was when it was measured."""
     if known is None or not known.maned:
         return ""
-    return "\n".join(f"- {describe_manipulation(r.action, scene)}: {encode_cost(r.cost)}"
-                     for r in known.maned)
+    return "\n".join(f"- {describe_manipulation(r.action, scene, r.placement if placement else None)}: "
+                     f"{encode_cost(r.cost)}" for r in known.maned)
 
 
 def known_costs_text(known: Optional[KnownCosts], scene: SceneGraph) -> str:
