@@ -1,7 +1,7 @@
 """The two base-pose protocols (``sim.pose_protocol``) side by side on the default experiment's
 houses: every object of every scene picked up once, from the furniture's navigation anchor.
 
-    .venv/bin/python benchmarks/bench_manipulation.py [--scenes data/scenes] [--n-l 5] [--pose-reach 0.8]
+    .venv/bin/python benchmarks/bench_manipulation.py [--scenes data/scenes] [--n-l 5] [--pose-reach 0.8] [--pose-margin 0.1]
 
 Prints per protocol: how many pickups have a graded success rate (0 < sr_man < 1), the share of
 the paper's cost classes of the measured c_man (easy < 5 <= medium <= 15 < hard), the mean trial
@@ -30,10 +30,10 @@ from interllm.sim.world import World
 from interllm.stages.inputs import load_grids, load_scene_and_missions, scene_ids
 
 
-def pickups(scenes_dir: Path, protocol: str, n_l: int, pose_reach: float) -> tuple[list, float]:
+def pickups(scenes_dir: Path, protocol: str, n_l: int, pose_reach: float, pose_margin: float) -> tuple[list, float]:
     """(every pickup's ActionResult, wall seconds of the pickups alone)."""
     cfg = ExperimentConfig()
-    sim = replace(cfg.sim, pose_protocol=protocol, n_l=n_l, pose_reach=pose_reach)
+    sim = replace(cfg.sim, pose_protocol=protocol, n_l=n_l, pose_reach=pose_reach, pose_margin=pose_margin)
     out, wall = [], 0.0
     for sid in scene_ids(scenes_dir):
         scene, missions = load_scene_and_missions(scenes_dir, sid, cfg)
@@ -66,10 +66,11 @@ def main() -> int:
     ap.add_argument("--scenes", type=Path, default=Path("data/scenes"))
     ap.add_argument("--n-l", type=int, default=5)
     ap.add_argument("--pose-reach", type=float, default=SimConfig().pose_reach, help="[m] sim.pose_reach")
+    ap.add_argument("--pose-margin", type=float, default=SimConfig().pose_margin, help="[m] sim.pose_margin")
     args = ap.parse_args()
     walls = {}
     for protocol in POSE_PROTOCOLS:
-        results, wall = pickups(args.scenes, protocol, args.n_l, args.pose_reach)
+        results, wall = pickups(args.scenes, protocol, args.n_l, args.pose_reach, args.pose_margin)
         walls[protocol] = wall / max(1, len(results))
         print(summary(protocol, results, wall), flush=True)
     print(f"reach / window wall time per pickup: {walls['reach'] / walls['window']:.2f}x")

@@ -180,6 +180,7 @@ class SimConfig:
     n_l: int = 5  # sampled base poses per manipulation (paper's N_l)
     pose_protocol: str = "window"  # how the N_l base poses are drawn: one of POSE_PROTOCOLS (sim/base_poses.py)
     pose_reach: float = 0.8  # [m] reach protocol: base centres at most this far (horizontal) from the target
+    pose_margin: float = 0.05  # [m] reach protocol: candidates this far beyond the arm's reach at the target height
     ik_max_iters: int = 150
     ik_tol: float = 0.015  # [m] position tolerance of IK convergence
     ik_dt: float = 0.05  # [s] IK integration step
@@ -198,6 +199,7 @@ class SimConfig:
         _choice(self.pose_protocol, "sim.pose_protocol", POSE_PROTOCOLS)
         _check(self.robot_radius < self.pose_reach <= 2.0, "sim.pose_reach",
                f"must be in (sim.robot_radius, 2] m, got {self.pose_reach}")
+        _check(0.0 <= self.pose_margin <= 1.0, "sim.pose_margin", f"must be in [0, 1] m, got {self.pose_margin}")
         _check(0 <= self.max_nav_replans <= 50, "sim.max_nav_replans", "must be in [0, 50]")
         _check(self.ik_max_iters >= 1, "sim.ik_max_iters", "must be >= 1")
         _check(self.gamma_nav >= 0 and self.gamma_man >= 0, "sim.gamma_nav",

@@ -56,6 +56,7 @@ def test_quick_is_one_scene_one_mission_all_planners():
     ("sim.n_l=0", "sim.n_l", "[1, 50]"),
     ("sim.pose_protocol=random", "sim.pose_protocol", "reach"),
     ("sim.pose_reach=0.1", "sim.pose_reach", "sim.robot_radius"),
+    ("sim.pose_margin=-0.1", "sim.pose_margin", "[0, 1]"),
 ])
 def test_out_of_range_values_name_the_key_and_valid_values(override, key, hint):
     with pytest.raises(ConfigError) as e:

@@ -14,7 +14,7 @@ from interllm.config import SimConfig
 from interllm.core.actions import Action
 from interllm.scene.graph import Door, Furniture, Mission, Room, SceneGraph, SceneObject, Wall
 from interllm.sim import manipulator as man
-from interllm.sim.base_poses import BasePose, reach_poses
+from interllm.sim.base_poses import BasePose, arm_reach, pose_radius, reach_poses
 from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, UPPER_ARM, WRIST_TO_GRIP
 from interllm.sim.world import World
 
@@ -35,7 +35,7 @@ def kitchen() -> SceneGraph:
 
 
 def reach_world(n_l: int = 20) -> World:
-    w = World(kitchen(), SimConfig(pose_protocol="reach", n_l=n_l))
+    w = World(kitchen(), SimConfig(pose_protocol="reach", n_l=n_l, pose_margin=0.25))  # poses on both sides of reach
     w.reset(Mission("m", "kitchen", (2.0, 1.5, 0.0), "counter_1", ()))
     return w
 
@@ -47,23 +47,32 @@ def horizontal_reach(target_z: float) -> float:
     return math.sqrt((UPPER_ARM + FOREARM) ** 2 - dz ** 2) + SHOULDER_FORWARD
 
 
+def test_the_pose_region_is_the_arms_reach_at_the_targets_height_plus_the_margin():
+    cfg = SimConfig(pose_protocol="reach", pose_margin=0.05)
+    assert arm_reach(0.95) == pytest.approx(horizontal_reach(0.95))
+    assert arm_reach(1.5) < arm_reach(0.95) < arm_reach(0.5)  # high shelves and low tables reach less far
+    assert pose_radius(cfg, 0.95) == pytest.approx(horizontal_reach(0.95) + 0.05)
+    assert pose_radius(SimConfig(pose_margin=1.0), 0.95) == SimConfig().pose_reach  # capped
+
+
 def test_reach_poses_are_distinct_free_within_reach_and_driven_to():
     w = reach_world()
     act = Action("pickup", "counter_1", obj="mug_front")
-    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg)
+    radius = 0.8  # the cap, sim.pose_reach: more cells than the arm reaches, for this geometric test
+    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg, radius)
     assert len(poses) == 20 and all(p.free for p in poses)
     assert len({(p.x, p.y) for p in poses}) == 20  # without replacement
     for p in poses:
         rc = w.belief.true.world_to_cell(np.array([p.x, p.y]))
         assert w.belief.true.is_free(rc) and w.belief.presumed.is_free(rc)
-        assert math.hypot(p.x - FRONT[0], p.y - FRONT[1]) <= w.cfg.pose_reach + 1e-9
+        assert math.hypot(p.x - FRONT[0], p.y - FRONT[1]) <= radius + 1e-9
         assert p.yaw == pytest.approx(math.atan2(FRONT[1] - p.y, FRONT[0] - p.x))
     # a tour: each leg is at least the straight line from the previous stop
     prev = (2.0, 1.5)
     for p in poses:
         assert p.drive >= math.hypot(p.x - prev[0], p.y - prev[1]) - 0.05
         prev = (p.x, p.y)
-    assert poses == reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg)
+    assert poses == reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg, radius)
 
 
 def test_a_pose_in_a_pocket_is_never_drawn():
@@ -79,9 +88,9 @@ def test_a_pose_in_a_pocket_is_never_drawn():
     patch = [(r, c) for r in range(lo[0] + 1, hi[0]) for c in range(lo[1] + 1, hi[1])]
     pts = g.cell_to_world(np.array(patch))
     assert all(g.is_free(rc) for rc in patch)
-    assert (np.hypot(pts[:, 0] - FRONT[0], pts[:, 1] - FRONT[1]) <= w.cfg.pose_reach).any()
+    assert (np.hypot(pts[:, 0] - FRONT[0], pts[:, 1] - FRONT[1]) <= 0.8).any()
     act = Action("pickup", "counter_1", obj="mug_front")
-    poses = reach_poses(g, w.belief.true, FRONT, (2.0, 1.5), act, 50, w.cfg)
+    poses = reach_poses(g, w.belief.true, FRONT, (2.0, 1.5), act, 50, w.cfg, 0.8)
     drawn = {tuple(int(v) for v in g.world_to_cell(np.array([p.x, p.y]))) for p in poses if p.free}
     assert len(drawn) == 50 and not drawn & set(patch)
 
@@ -111,7 +120,8 @@ def test_an_object_at_the_back_of_a_deep_counter_succeeds_from_exactly_the_poses
 def test_trial_time_includes_the_drive_to_the_pose():
     w = reach_world()
     act = Action("pickup", "counter_1", obj="mug_front")
-    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, w.robot_pose[:2], act, w.cfg.n_l, w.cfg)
+    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, w.robot_pose[:2], act, w.cfg.n_l, w.cfg,
+                        pose_radius(w.cfg, 0.95))
     res = w.execute(act)
     assert [t.base_pose for t in res.trials] == [tuple(round(v, 6) for v in p.pose) for p in poses]
     for p, t in zip(poses, res.trials, strict=True):

@@ -8,8 +8,8 @@ window is so small that a pickup succeeds from all poses or from none, and movin
 costs nothing.
 
 ``reach`` (the paper's): N_l *distinct* cells drawn without replacement from the cells that are
-free on the true grid *and* on the robot's map, whose centre lies within ``sim.pose_reach`` [m]
-(horizontal) of the target, and that the robot can drive to from where it stands over such cells
+free on the true grid *and* on the robot's map, whose centre lies within ``pose_radius`` [m]
+(horizontal) of the target — the arm's reach at the target's height plus ``sim.pose_margin``, and that the robot can drive to from where it stands over such cells
 without leaving the furniture's neighbourhood (so no pose strands the robot in a pocket: it came
 by a path and can go back by it). The poses are visited in a nearest-neighbour tour from the robot's position;
 ``BasePose.drive`` [m] is the path length on the robot's map from the previous pose, which the
@@ -34,9 +34,11 @@ from interllm.planning.search import grid_csr
 from interllm.scene.geometry import footprint_distance
 from interllm.scene.graph import Furniture
 from interllm.scene.grid import OccupancyGrid
+from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, UPPER_ARM, WRIST_TO_GRIP
 
 POSE_RING = 0.30  # [m] window protocol: poses at most this far beyond robot_radius from the footprint
 LOCAL_WINDOW = 0.15  # [m] window protocol: at most this much farther from the target than the closest
+PRE_GRASP_HEIGHT = 0.10  # [m] the pre-grasp pose above the target (sim/manipulator.py uses this one)
 NEIGHBOURHOOD_MARGIN = 1.0  # [m] reach protocol: the drive between poses stays this close to the reach disc
 __all__ = ["POSE_PROTOCOLS", "BasePose", "sample_base_poses", "window_poses", "reach_poses"]
 
@@ -63,12 +65,28 @@ def _facing(x: float, y: float, target_xy, drive: float = 0.0, free: bool = True
 
 
 def sample_base_poses(cfg: SimConfig, presumed: OccupancyGrid, true: OccupancyGrid, furniture: Furniture,
-                      target_xy, robot_xy, action: Action, n: int) -> list[BasePose]:
-    """``n`` base poses for a manipulation of ``furniture`` at ``target_xy`` [m] by
+                      target, robot_xy, action: Action, n: int) -> list[BasePose]:
+    """``n`` base poses for a manipulation of ``furniture`` at ``target`` (x, y, z) [m] by
     ``cfg.pose_protocol`` (module doc); [] when the window protocol finds no free cell."""
     if cfg.pose_protocol == "window":
-        return window_poses(presumed, furniture, target_xy, action, n, cfg)
-    return reach_poses(presumed, true, target_xy, robot_xy, action, n, cfg)
+        return window_poses(presumed, furniture, target[:2], action, n, cfg)
+    return reach_poses(presumed, true, target[:2], robot_xy, action, n, cfg, pose_radius(cfg, float(target[2])))
+
+
+def arm_reach(target_z: float) -> float:
+    """[m] the farthest horizontal base-to-target distance from which the top-down pre-grasp of a
+    target at height ``target_z`` [m] is within the arm's two links: the wrist, WRIST_TO_GRIP plus
+    the pre-grasp height above the target, against UPPER_ARM + FOREARM from the shoulder."""
+    dz = target_z + PRE_GRASP_HEIGHT + WRIST_TO_GRIP - SHOULDER_HEIGHT
+    links = UPPER_ARM + FOREARM
+    return math.sqrt(max(links ** 2 - dz ** 2, 0.0)) + SHOULDER_FORWARD
+
+
+def pose_radius(cfg: SimConfig, target_z: float) -> float:
+    """[m] reach protocol: base centres this close to the target are candidates — the arm's reach at
+    the target's height plus ``sim.pose_margin`` (poses a little beyond it: trials that may fail),
+    at most ``sim.pose_reach``."""
+    return min(arm_reach(target_z) + cfg.pose_margin, cfg.pose_reach)
 
 
 def window_poses(grid: OccupancyGrid, furniture: Furniture, target_xy, action: Action, n: int,
@@ -102,11 +120,12 @@ def _cell_window(grid: OccupancyGrid, box) -> tuple[tuple[int, int], tuple[int, 
 
 
 def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_xy, action: Action, n: int,
-                cfg: SimConfig) -> list[BasePose]:
-    """The reach protocol (module doc); always ``n`` poses, the unfilled ones with ``free`` False."""
+                cfg: SimConfig, radius: float) -> list[BasePose]:
+    """The reach protocol (module doc) with base centres at most ``radius`` [m] from the target;
+    always ``n`` poses, the unfilled ones with ``free`` False."""
     tx, ty = float(target_xy[0]), float(target_xy[1])
     rx, ry = float(robot_xy[0]), float(robot_xy[1])
-    m = cfg.pose_reach + NEIGHBOURHOOD_MARGIN
+    m = radius + NEIGHBOURHOOD_MARGIN
     box = (min(tx - m, rx - 0.5), min(ty - m, ry - 0.5), max(tx + m, rx + 0.5), max(ty + m, ry + 0.5))
     (r0, c0), (r1, c1) = _cell_window(presumed, box)
     free = presumed.free[r0:r1, c0:c1] & true.free[r0:r1, c0:c1]  # where the robot may and can stand
@@ -119,7 +138,7 @@ def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_x
     rr, cc = np.mgrid[r0:r1, c0:c1]
     centres = presumed.cell_to_world(np.stack([rr, cc], -1))
     ok = (free & np.isfinite(dist.reshape(rows, cols))
-          & (np.hypot(centres[..., 0] - tx, centres[..., 1] - ty) <= cfg.pose_reach + 1e-9))
+          & (np.hypot(centres[..., 0] - tx, centres[..., 1] - ty) <= radius + 1e-9))
     cand = np.argwhere(ok)  # local (row, col), row-major: a stable order for the seeded draw
     rng = np.random.default_rng(pose_sampling_seed(cfg.seed, action))
     pick = cand[np.sort(rng.choice(len(cand), size=min(n, len(cand)), replace=False))] if len(cand) else cand

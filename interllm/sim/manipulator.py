@@ -47,13 +47,12 @@ from interllm.core.actions import Action, State
 from interllm.core.frames import GRIP_FRAME, WORLD_FRAME, wxyz_to_xyzw, yaw_quat_wxyz
 from interllm.core.results import ActionResult, ManipulationTrial, ObjectEvent, man_cost
 from interllm.scene.graph import SceneGraph
-from interllm.sim.base_poses import BasePose, sample_base_poses
+from interllm.sim.base_poses import PRE_GRASP_HEIGHT, BasePose, sample_base_poses
 from interllm.sim.belief import BeliefMap
 from interllm.sim.build import build_local_spec, local_furniture
 from interllm.sim.physics import MujocoWorld
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK
 
-PRE_GRASP_HEIGHT = 0.10  # [m] above the target
 ROT_TOL = 0.1  # [rad] orientation tolerance of IK convergence
 IK_NEIGHBOURHOOD = 1.6  # [m] reach protocol: what the arm could touch (pose_reach 0.8 + arm reach 0.76, rounded)
 GRASP_MIN_HEIGHT = 0.02  # [m] grasp point (gripper site) at least this high above the surface
@@ -344,7 +343,7 @@ class Manipulator:
                target: np.ndarray) -> list[BasePose]:
         x, y, _ = physics.robot_pose
         return sample_base_poses(self.cfg, belief.presumed, belief.true, scene.furniture[action.furniture],
-                                 target[:2], (x, y), action, self.cfg.n_l)
+                                 target, (x, y), action, self.cfg.n_l)
 
     def pickup(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
                action: Action) -> ActionResult:
