@@ -345,6 +345,28 @@ class Manipulator:
         return sample_base_poses(self.cfg, belief.presumed, belief.true, scene.furniture[action.furniture],
                                  target, (x, y), action, self.cfg.n_l)
 
+    def _trials_then_motion(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, clock: float,
+                            action: Action, target: np.ndarray, inside_box, ik_exclude: tuple[str, ...],
+                            what_failed: str, at_grasp) -> ActionResult:
+        """Steps 1-5 of the module doc for a pickup or place whose preconditions hold: the N_l trials
+        on the IK model without ``ik_exclude`` (the held object), then the motion from the first
+        successful pose, calling ``at_grasp(result, t)`` when the gripper closes or opens."""
+        cfg = self.cfg
+        poses = self._poses(physics, belief, scene, action, target)
+        if not poses:
+            return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
+        ik = self.local_ik(scene, action.furniture, exclude=ik_exclude)
+        trials, sols = _run_trials(cfg, ik, poses, target, inside_box, ik.obstacles(but=(action.obj,)))
+        res, k = _result(cfg, action, trials, what_failed)
+        if k < 0:
+            res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
+            return res
+        q_pre, q_grasp = sols[k]  # type: ignore[misc]
+        samples = _execute_motion(physics, poses[k].pose, q_pre, q_grasp, clock, res.time, lambda t: at_grasp(res, t))
+        physics.forward()
+        res.trajectory = physics.make_trajectory(samples)
+        return res
+
     def pickup(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
                action: Action) -> ActionResult:
         """Pick up ``action.obj`` from ``action.furniture`` (see the module doc), starting at ``clock`` [s]."""
@@ -367,27 +389,15 @@ class Manipulator:
         target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
         half = np.asarray(o.size, dtype=float) / 2
         inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
-        poses = self._poses(physics, belief, scene, action, target)
-        if not poses:
-            return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
-        ik = self.local_ik(scene, action.furniture)
-        trials, sols = _run_trials(cfg, ik, poses, target, inside, ik.obstacles(but=(action.obj,)))
-        res, k = _result(cfg, action, trials, "no collision-free grasp")
-        if k < 0:
-            res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
-            return res
-        q_pre, q_grasp = sols[k]  # type: ignore[misc]
 
-        def grasp(t: float):
+        def grasp(res: ActionResult, t: float):
             physics.attach(action.obj)
             pos, quat = physics.held_offset
             res.object_events.append(ObjectEvent(t, action.obj, GRIP_FRAME, tuple(float(v) for v in pos),
                                                  wxyz_to_xyzw(quat)))
 
-        samples = _execute_motion(physics, poses[k].pose, q_pre, q_grasp, clock, res.time, grasp)
-        physics.forward()
-        res.trajectory = physics.make_trajectory(samples)
-        return res
+        return self._trials_then_motion(physics, belief, scene, clock, action, target, inside, (),
+                                        "no collision-free grasp", grasp)
 
     def place(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
               action: Action) -> ActionResult:
@@ -412,25 +422,13 @@ class Manipulator:
         target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
         half = np.asarray(o.size, dtype=float) / 2
         inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
-        poses = self._poses(physics, belief, scene, action, target)
-        if not poses:
-            return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
-        ik = self.local_ik(scene, action.furniture, exclude=(action.obj,))
-        trials, sols = _run_trials(cfg, ik, poses, target, inside, ik.obstacles())
-        res, k = _result(cfg, action, trials, "no collision-free placing pose")
-        if k < 0:
-            res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
-            return res
-        q_pre, q_grasp = sols[k]  # type: ignore[misc]
 
-        def release(t: float):
+        def release(res: ActionResult, t: float):
             physics.release()
             pos = (float(spot[0]), float(spot[1]), float(spot[2]))
             scene.move_object(action.obj, action.furniture, pos)
             physics.set_object_pose(action.obj, pos)
             res.object_events.append(ObjectEvent(t, action.obj, WORLD_FRAME, pos, (0.0, 0.0, 0.0, 1.0)))
 
-        samples = _execute_motion(physics, poses[k].pose, q_pre, q_grasp, clock, res.time, release)
-        physics.forward()
-        res.trajectory = physics.make_trajectory(samples)
-        return res
+        return self._trials_then_motion(physics, belief, scene, clock, action, target, inside, (action.obj,),
+                                        "no collision-free placing pose", release)
