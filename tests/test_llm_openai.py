@@ -5,7 +5,6 @@ OpenAI-compatible server on the embedded GGUF), replayed byte for byte from the 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import time
