@@ -2,7 +2,7 @@
 semantic-similarity accuracy of manipulation-cost inferences (paper Table II).
 
 Every random draw comes from a ``numpy.random.Generator`` seeded from ``MetricsConfig.seed`` and a
-CRC32 of the group's label (``interllm.core.seeding.bootstrap_seed``), so a group's CI does not depend on which other groups
+a seed derived from the group's label (``interllm.core.seeding.bootstrap_seed``), so a group's CI does not depend on which other groups
 are present, and identical inputs give identical outputs.
 """
 

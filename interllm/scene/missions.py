@@ -3,7 +3,7 @@
 Mission 0 is the paper's three commands (breakfast, meeting, reading) when
 ``MissionConfig.include_paper_mission``; the others draw ``commands_per_mission`` distinct commands
 among those the scene supports (target furniture present and enough valid objects), seeded by
-``core.seeding.mission_seed`` (CRC32) of (scene id, mission seed, mission index) so the result never depends on the
+``core.seeding.mission_seed`` of (scene id, mission seed, mission index) so the result never depends on the
 process. The robot starts on a free cell of the TRUE grid (hence also of the presumed one) in the
 largest free region, next to a start furniture, facing it.
 """
