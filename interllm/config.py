@@ -23,7 +23,8 @@ from interllm.errors import UserError
 CACHE_MODES = ("readwrite", "replay", "off")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean")
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
-POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: committed results, the paper's (interllm/sim/base_poses.py)
+SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/generator.py, interllm/scene/floor_plans.py)
+POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: the earlier protocol, the paper's (interllm/sim/base_poses.py)
 
 
 class ConfigError(UserError, ValueError):
@@ -47,10 +48,12 @@ class SceneConfig:
     n_rooms: int = 9
     n_furniture: int = 26
     n_objects: int = 30
+    layout: str = "hallway"  # floor plan: one of SCENE_LAYOUTS (grid: rooms on a grid; hallway: rooms along hallways)
     room_size_min: float = 3.0  # [m]
     room_size_max: float = 5.0  # [m]
-    door_width: float = 1.0  # [m] opening width of a normal door
-    narrow_door_width: float = 0.55  # [m]; narrower than the robot, collides on execution
+    door_width: float = 1.0  # [m] opening width of a normal door (hallway layout: the widest)
+    door_width_min: float = 0.8  # [m] hallway layout: normal doors are drawn in [door_width_min, door_width]
+    narrow_door_width: float = 0.72  # [m]; the map lets the robot through, its true footprint collides
     narrow_door_prob: float = 0.15
     partly_closed_door_prob: float = 0.25  # door leaf blocks part of the opening (true map only)
     hard_placement_prob: float = 0.3  # object deep on a wide surface, high shelf, clutter
@@ -65,6 +68,9 @@ class SceneConfig:
         _check(self.n_rooms >= 2, "scene.n_rooms", f"must be >= 2, got {self.n_rooms}")
         _check(self.n_furniture >= self.n_rooms, "scene.n_furniture", "must be >= scene.n_rooms")
         _check(self.n_objects >= 1, "scene.n_objects", f"must be >= 1, got {self.n_objects}")
+        _choice(self.layout, "scene.layout", SCENE_LAYOUTS)
+        _check(0.3 <= self.door_width_min <= self.door_width, "scene.door_width_min",
+               f"must be in [0.3 m, scene.door_width], got {self.door_width_min}")
         _check(0 < self.room_size_min <= self.room_size_max, "scene.room_size_min",
                "must satisfy 0 < room_size_min <= room_size_max")
         for k in ("narrow_door_prob", "partly_closed_door_prob", "hard_placement_prob"):
@@ -113,8 +119,8 @@ class LLMConfig:
     cost_inference_mode: str = "score"  # manipulation-cost inference (...proposers.COST_INFERRERS)
     # cost-inference prompts say where on its furniture each object is (scene/placement.py): the
     # furniture instance, depth from the open side, surface height, clearance, size (false: the
-    # committed results' prompts, furniture category and room only)
-    placement_attributes: bool = False
+    # earlier protocol: furniture category and room only)
+    placement_attributes: bool = True
     constrain_names: bool = True  # enumerate valid scene-graph names in schemas
     repair_retries: int = 2  # re-asks after malformed output
     calibrate: bool = True  # score calibration against a content-free prompt
@@ -146,10 +152,11 @@ class PlannerConfig:
     epsilon_d: float = 1.0  # [m] path-overlap distance scale of P°
     moma_max_replans: int = 3  # MoMa-LLM replans after execution failures, per command
     sayplan_max_iterations: int = 3  # SayPlan symbolic-simulator replanning rounds
-    # false (the committed results): SayPlan and MoMa-LLM take every command's plans from the
-    # mission-start candidates; true: like Inter-LLM, they propose commands 2.. from the current
-    # scene and state, excluding delivered objects (only Inter-LLM's prompts carry known costs)
-    fair_baselines: bool = False
+    # true (the committed results): like Inter-LLM, SayPlan and MoMa-LLM propose commands 2.. from
+    # the current scene and state, excluding delivered objects (only Inter-LLM's prompts carry
+    # known costs); false (the earlier protocol): they take every command's plans from the
+    # mission-start candidates
+    fair_baselines: bool = True
 
     def validate(self) -> None:
         _check(len(self.names) >= 1, "planner.names", "must list at least one planner")
@@ -165,7 +172,14 @@ class PlannerConfig:
 
 @dataclass
 class SimConfig:
-    robot_radius: float = 0.25  # [m] base footprint radius (grid inflation)
+    robot_radius: float = 0.25  # [m] the radius the robot's map is inflated by (what the planner assumes)
+    # [m] the base's true contact radius in MuJoCo; null: robot_radius less half a grid cell's
+    # diagonal, so a cell the map calls free never touches a wall or furniture (only door leaves)
+    footprint_radius: Optional[float] = 0.3
+    # path search cost per metre grows by this factor next to obstacles (0: plain shortest paths);
+    # the extra falls linearly from clearance_cost at the inflated obstacle to 0 at clearance_band [m]
+    clearance_cost: float = 2.0
+    clearance_band: float = 0.2
     base_speed: float = 0.5  # [m/s]
     turn_speed: float = 1.5  # [rad/s]
     step: float = 0.05  # [m] one move-forward control
@@ -173,14 +187,14 @@ class SimConfig:
     recovery_time: float = 3.0  # [s] backing off after a collision
     backoff: float = 0.15  # [m]
     max_nav_replans: int = 6  # bounded replans after collisions per navigate action
-    # true (the committed results): cells where the robot collided stay blocked on its map for the
-    # rest of the mission, for every planner; false: each navigate starts from the prior map (the
-    # paper: what a planner learns of navigation is what its known costs record)
-    persistent_map: bool = True
+    # false (the paper, the committed results): each navigate starts from the prior map; what a
+    # planner learns of navigation is what its known costs record. true (ablation): cells where the
+    # robot collided stay blocked on its map for the rest of the mission, for every planner
+    persistent_map: bool = False
     n_l: int = 5  # sampled base poses per manipulation (paper's N_l)
-    pose_protocol: str = "window"  # how the N_l base poses are drawn: one of POSE_PROTOCOLS (sim/base_poses.py)
+    pose_protocol: str = "reach"  # how the N_l base poses are drawn: one of POSE_PROTOCOLS (sim/base_poses.py)
     pose_reach: float = 0.8  # [m] reach protocol: base centres at most this far (horizontal) from the target
-    pose_margin: float = 0.05  # [m] reach protocol: candidates this far beyond the arm's reach at the target height
+    pose_margin: float = 0.03  # [m] reach protocol: candidates this far beyond the arm's reach at the target height
     ik_max_iters: int = 150
     ik_tol: float = 0.015  # [m] position tolerance of IK convergence
     ik_dt: float = 0.05  # [s] IK integration step
@@ -192,6 +206,10 @@ class SimConfig:
 
     def validate(self) -> None:
         _check(0.05 <= self.robot_radius <= 1.0, "sim.robot_radius", "must be in [0.05, 1] m")
+        _check(self.footprint_radius is None or 0.05 <= self.footprint_radius <= 1.0, "sim.footprint_radius",
+               f"must be null or in [0.05, 1] m, got {self.footprint_radius}")
+        _check(0.0 <= self.clearance_cost <= 100.0, "sim.clearance_cost", f"must be in [0, 100], got {self.clearance_cost}")
+        _check(0.0 < self.clearance_band <= 2.0, "sim.clearance_band", f"must be in (0, 2] m, got {self.clearance_band}")
         _check(self.base_speed > 0, "sim.base_speed", "must be > 0")
         _check(self.turn_speed > 0, "sim.turn_speed", "must be > 0")
         _check(0.005 <= self.step <= 0.5, "sim.step", "must be in [0.005, 0.5] m")

@@ -13,6 +13,10 @@ from interllm.sim.world import World
 # Room A [0,4]x[0,4] and room B [4,8]x[0,4]; the wall x = 4 has door_a (y in [0.5, 1.5]) and
 # door_b (y in [2.5, 3.5]). Grid cell centres are at -0.475 + 0.05 k.
 START = (1.525, 0.875, 0.0)
+# The navigation numbers below are worked out for a base whose contact radius is the map's (less
+# half a cell diagonal) on plain shortest paths; tests/test_sim_contacts.py covers the true
+# footprint (sim.footprint_radius) and the clearance-weighted search.
+MAP_FOOTPRINT = {"footprint_radius": None, "clearance_cost": 0.0}
 
 
 def house(open_a: float = 1.0, open_b: float = 1.0) -> SceneGraph:
@@ -46,7 +50,7 @@ def nav(fid: str, room: str) -> Action:
 
 @pytest.fixture(scope="module")
 def world_open() -> World:
-    return World(house(), SimConfig())
+    return World(house(), SimConfig(**MAP_FOOTPRINT))
 
 
 def test_reset_state_and_pose(world_open):
@@ -82,7 +86,8 @@ def test_straight_corridor_distance_equals_path_length(world_open):
 
 
 def test_half_closed_door_one_collision_and_replan_through_other_door():
-    w = World(house(open_a=0.5), SimConfig())  # door_a's leaf blocks y in [0.5, 1.0]
+    # door_a's leaf blocks y in [0.5, 1.0]; a persistent map keeps what the navigate learned
+    w = World(house(open_a=0.5), SimConfig(persistent_map=True, **MAP_FOOTPRINT))
     w.reset(mission())
     r = w.execute(nav("sofa_1", "room_b"))
     assert r.success, r.reason
@@ -109,7 +114,7 @@ def test_half_closed_door_one_collision_and_replan_through_other_door():
 
 
 def test_blocked_everywhere_fails_bounded_and_keeps_state():
-    cfg = SimConfig(max_nav_replans=3)
+    cfg = SimConfig(max_nav_replans=3, **MAP_FOOTPRINT)
     w = World(house(open_a=0.5, open_b=0.45), cfg)
     st0 = w.reset(mission())
     r = w.execute(nav("sofa_1", "room_b"))

@@ -138,6 +138,17 @@ def rasterize(scene: SceneGraph, resolution: float = 0.05, robot_radius: float =
     return OccupancyGrid(occupied=occ, resolution=resolution, origin=origin)
 
 
+def clear_of_obstacles(free: np.ndarray, extra: float, resolution: float) -> np.ndarray:
+    """Free cells whose neighbours within ``extra`` [m] are all free too (``free`` eroded by a disc):
+    where a footprint ``extra`` larger than the grid's inflation radius touches nothing. Cells
+    beyond the array's border count as free (pass a window larger than the disc)."""
+    rad = int(np.ceil(extra / resolution - 1e-9))
+    if rad <= 0:
+        return free.copy()
+    yy, xx = np.mgrid[-rad:rad + 1, -rad:rad + 1]
+    return ndimage.binary_erosion(free, structure=(xx * xx + yy * yy) <= rad * rad, border_value=1)
+
+
 # ---- reachability helpers (added by the scene subpackage) ----------------------------------------
 def free_components(grid: OccupancyGrid, connectivity: int = 4) -> tuple[np.ndarray, int]:
     """Label connected free regions: (labels int [rows, cols], 0 = occupied; n_labels).

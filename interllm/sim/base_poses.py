@@ -8,7 +8,8 @@ window is so small that a pickup succeeds from all poses or from none, and movin
 costs nothing.
 
 ``reach`` (the paper's): N_l *distinct* cells drawn without replacement from the cells that are
-free on the true grid *and* on the robot's map, whose centre lies within ``pose_radius`` [m]
+free on the true grid *and* on the robot's map (for a ``sim.footprint_radius`` larger than the
+map's radius: with the whole footprint clear of obstacles), whose centre lies within ``pose_radius`` [m]
 (horizontal) of the target — the arm's reach at the target's height plus ``sim.pose_margin``, and that the robot can drive to from where it stands over such cells
 without leaving the furniture's neighbourhood (so no pose strands the robot in a pocket: it came
 by a path and can go back by it). The poses are visited in a nearest-neighbour tour from the robot's position;
@@ -16,7 +17,7 @@ by a path and can go back by it). The poses are visited in a nearest-neighbour t
 trial's time includes. Where fewer than N_l cells qualify, the missing trials are failures
 (``BasePose.free`` False: a cramped spot is a hard spot).
 
-Both samplers are seeded with ``sim.seed + crc32(str(action))``; the yaw faces the target.
+Both samplers are seeded with ``core.seeding.pose_sampling_seed(sim.seed, action)``; the yaw faces the target.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ from interllm.core.seeding import pose_sampling_seed
 from interllm.planning.search import grid_csr
 from interllm.scene.geometry import footprint_distance
 from interllm.scene.graph import Furniture
-from interllm.scene.grid import OccupancyGrid
+from interllm.scene.grid import OccupancyGrid, clear_of_obstacles
+from interllm.sim.physics import contact_radius
 from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, UPPER_ARM, WRIST_TO_GRIP
 
 POSE_RING = 0.30  # [m] window protocol: poses at most this far beyond robot_radius from the footprint
@@ -129,6 +131,8 @@ def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_x
     box = (min(tx - m, rx - 0.5), min(ty - m, ry - 0.5), max(tx + m, rx + 0.5), max(ty + m, ry + 0.5))
     (r0, c0), (r1, c1) = _cell_window(presumed, box)
     free = presumed.free[r0:r1, c0:c1] & true.free[r0:r1, c0:c1]  # where the robot may and can stand
+    standable = clear_of_obstacles(free, contact_radius(cfg, presumed.resolution) - cfg.robot_radius,
+                                   presumed.resolution)  # ... with its true footprint touching nothing
     rows, cols = free.shape
     graph = grid_csr(~free, presumed.resolution)
     start = _nearest_free(presumed, free, (r0, c0), (rx, ry))
@@ -137,7 +141,7 @@ def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_x
     dist = dijkstra(graph, directed=False, indices=start[0] * cols + start[1])
     rr, cc = np.mgrid[r0:r1, c0:c1]
     centres = presumed.cell_to_world(np.stack([rr, cc], -1))
-    ok = (free & np.isfinite(dist.reshape(rows, cols))
+    ok = (standable & np.isfinite(dist.reshape(rows, cols))
           & (np.hypot(centres[..., 0] - tx, centres[..., 1] - ty) <= radius + 1e-9))
     cand = np.argwhere(ok)  # local (row, col), row-major: a stable order for the seeded draw
     rng = np.random.default_rng(pose_sampling_seed(cfg.seed, action))

@@ -18,7 +18,7 @@ from scipy import ndimage
 from interllm.planning.search import GridSearch
 from interllm.scene.geometry import footprint_distance
 from interllm.scene.graph import Furniture
-from interllm.scene.grid import OccupancyGrid
+from interllm.scene.grid import OccupancyGrid, clear_of_obstacles
 
 ANCHOR_RINGS = (0.25, 0.5, 1.0)  # [m] beyond the robot radius: how far an anchor may be from a footprint
 
@@ -27,10 +27,14 @@ class BeliefMap:
     """presumed / true occupancy grids of a house for a robot of ``robot_radius`` [m].
 
     furniture: the house's furniture (static: anchors are computed once per furniture).
+    clearance: (sim.clearance_cost, sim.clearance_band [m]) of the path search (``GridSearch``).
+    footprint_extra: [m] how much the true footprint exceeds ``robot_radius``; anchors keep that
+        much farther from obstacles where they can.
     """
 
     def __init__(self, presumed: OccupancyGrid, true: OccupancyGrid, furniture: dict[str, Furniture],
-                 robot_radius: float) -> None:
+                 robot_radius: float, clearance: tuple[float, float] = (0.0, 0.2),
+                 footprint_extra: float = 0.0) -> None:
         self.true = true
         self.initial = presumed
         self.robot_radius = float(robot_radius)
@@ -38,15 +42,17 @@ class BeliefMap:
         lab, n = ndimage.label(presumed.free, structure=np.ones((3, 3), dtype=bool))
         sizes = np.bincount(lab.ravel())[1:]
         self._main_component = (lab == (int(np.argmax(sizes)) + 1)) if n else np.zeros_like(lab, dtype=bool)
+        self._standable = clear_of_obstacles(presumed.free, footprint_extra, presumed.resolution)
         self._anchors: dict[str, tuple[float, float]] = {}
+        self.clearance = (float(clearance[0]), float(clearance[1]))
         self.presumed = presumed.copy()
-        self.search = GridSearch(self.presumed)
+        self.search = GridSearch(self.presumed, clearance_cost=self.clearance[0], clearance_band=self.clearance[1])
         self.learned = 0  # cells blocked since the last reset
 
     def reset(self) -> None:
         """The initial presumed map again (a new mission, or a navigate without a persistent map)."""
         self.presumed = self.initial.copy()
-        self.search = GridSearch(self.presumed)
+        self.search = GridSearch(self.presumed, clearance_cost=self.clearance[0], clearance_band=self.clearance[1])
         self.learned = 0
 
     def forget(self) -> None:
@@ -56,7 +62,7 @@ class BeliefMap:
 
     def anchor(self, furniture_id: str) -> tuple[float, float]:
         """Goal point [m] for navigating to a furniture: the free cell of the initial presumed
-        map next to it (within robot_radius + 0.25 m of its footprint, widening to 0.5 and 1 m
+        map (where the true footprint touches nothing, if there is such a cell) next to it (within robot_radius + 0.25 m of its footprint, widening to 0.5 and 1 m
         if needed), in the largest connected free region, closest to the furniture centre."""
         if furniture_id in self._anchors:
             return self._anchors[furniture_id]
@@ -64,7 +70,9 @@ class BeliefMap:
             raise KeyError(f"unknown furniture {furniture_id!r}; valid: {sorted(self._furniture)}")
         f = self._furniture[furniture_id]
         g = self.initial
-        cells = np.argwhere(g.free & self._main_component)
+        cells = np.argwhere(g.free & self._main_component & self._standable)
+        if len(cells) == 0:
+            cells = np.argwhere(g.free & self._main_component)
         if len(cells) == 0:
             cells = np.argwhere(g.free)
         pts = g.cell_to_world(cells)

@@ -20,11 +20,25 @@ from interllm.sim.build import build_world_spec
 from interllm.sim.robot import ARM_JOINTS, BASE_GEOM, BASE_JOINTS, GRIP_SITE, TUCK
 
 
+def contact_radius(sim_cfg: SimConfig, resolution: float) -> float:
+    """Radius [m] of the base's contact cylinder: ``sim.footprint_radius`` (the true footprint,
+    which hits whatever the driven path passes closer to than that), or by default the map's
+    radius less half a cell diagonal: the grid inflates obstacles cell by cell, up to that much
+    optimistically, so a cell the map calls free then never touches a wall or furniture and only
+    door leaves (which the presumed map does not hold) are hit."""
+    if sim_cfg.footprint_radius is not None:
+        return float(sim_cfg.footprint_radius)
+    return sim_cfg.robot_radius - resolution * math.sqrt(0.5) - 1e-3
+
+
 class MujocoWorld:
     """MjModel/MjData of ``scene`` with the robot (``sim_cfg``), on grids of ``resolution`` [m]."""
 
     def __init__(self, scene: SceneGraph, sim_cfg: SimConfig, resolution: float) -> None:
         self.spec = build_world_spec(scene, robot=True, sim_cfg=sim_cfg)
+        # set before compiling: the broad phase bounds each geom by its compiled size (geom_rbound)
+        self.contact_radius = contact_radius(sim_cfg, resolution)
+        self.spec.geom(BASE_GEOM).size[0] = self.contact_radius
         self.model = self.spec.compile()
         self.data = mujoco.MjData(self.model)
         m = self.model
@@ -32,11 +46,6 @@ class MujocoWorld:
         self._arm_qadr = np.array([m.jnt_qposadr[m.joint(n).id] for n in ARM_JOINTS])
         self._grip_site = m.site(GRIP_SITE).id
         self.base_geom = m.geom(BASE_GEOM).id
-        # The grid inflates obstacles cell by cell, which can be up to half a cell diagonal
-        # optimistic; shrink the base's contact cylinder by that much so that a cell the map
-        # calls free never touches a wall or furniture (door leaves are what the map misses).
-        self.contact_radius = sim_cfg.robot_radius - resolution * math.sqrt(0.5) - 1e-3
-        m.geom_size[self.base_geom][0] = self.contact_radius
         # The house model is only asked for the base's contacts (base_contacts); objects resting on
         # furniture and the arm would otherwise add contacts to every mj_collision for nothing.
         static = {"wall", "door", "furniture", "floor"}

@@ -46,7 +46,9 @@ class World:
         if grids is None:
             grids = {d: rasterize(self.scene, self.resolution, self.cfg.robot_radius, doors=d)
                      for d in ("true", "presumed")}
-        self.belief = BeliefMap(grids["presumed"], grids["true"], self.initial_scene.furniture, self.cfg.robot_radius)
+        self.belief = BeliefMap(grids["presumed"], grids["true"], self.initial_scene.furniture, self.cfg.robot_radius,
+                                clearance=(self.cfg.clearance_cost, self.cfg.clearance_band),
+                                footprint_extra=self.physics.contact_radius - self.cfg.robot_radius)
         self.navigator = Navigator(self.cfg, self.resolution)
         self.manipulator = Manipulator(self.cfg)
         self.state = State(None, None, None)
