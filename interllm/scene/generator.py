@@ -1,7 +1,7 @@
 """Procedural house generator: rooms on a grid, walls with doors, furniture, objects.
 
 ``generate_scene(cfg, index)`` is deterministic in ``(cfg, index)``: scene ``index`` uses seed
-``cfg.seed + index`` (numpy ``Generator``; one sub-stream per attempt), and every float is rounded
+``cfg.seed + index`` (numpy ``Generator`` seeded by ``core.seeding.scene_seed(seed, attempt)``), and every float is rounded
 to 1e-4 m so ``scene.to_json()`` is byte-identical across runs and machines.
 
 Floor plan: ``rows x cols`` rectangular cells (column widths and row heights drawn in
@@ -29,8 +29,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from interllm.config import SceneConfig
+from interllm.core.seeding import scene_seed
 from interllm.errors import UserError
 from interllm.scene.catalog import Catalog, CommandSpec, load_catalog
+from interllm.scene.floor_plans import HALLWAY, hallway_rects, plan_walls, shared_edges
 from interllm.scene.geometry import free_edges, r4, rect_gap, rects_overlap
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.grid import rasterize
@@ -186,6 +188,80 @@ def _floor_plan(b: _Build) -> list[tuple[str, str, str]]:
     return out
 
 
+def _hallway_plan(b: _Build) -> list[tuple[str, str, str]]:
+    """Rooms along hallways (``interllm.scene.floor_plans``), their doors and walls. Doors: a
+    spanning tree of the rooms' shared edges that prefers doors onto a hallway (always normal,
+    fully open, widths in [door_width_min, door_width]), plus extra loop doors between rooms, which
+    alone may be narrow or partly closed. Returns the door edges as (door id, room a, room b)."""
+    cfg, rng, cat = b.cfg, b.rng, b.cat
+    plan = hallway_rects(cfg.n_rooms, rng, cfg.room_size_min, cfg.room_size_max)
+    rects = [r for _, r in plan]
+    rooms = [i for i, (hall, _) in enumerate(plan) if not hall]
+    area = {i: (rects[i][2] - rects[i][0]) * (rects[i][3] - rects[i][1]) for i in rooms}
+    types = cat.room_types_for_house(len(rooms))
+    order_types = sorted(range(len(rooms)), key=lambda k: (cat.rooms[types[k]].space_rank, k))
+    order_rooms = sorted(rooms, key=lambda i: (-area[i], i))
+    type_of = {order_rooms[k]: types[t] for k, t in enumerate(order_types)}
+    ids = []
+    t = cfg.wall_thickness / 2
+    for i, (hall, (x0, y0, x1, y1)) in enumerate(plan):
+        rtype = HALLWAY if hall else type_of[i]
+        rid = b.new_id(rtype)
+        b.rooms[rid] = Room(rid, rtype, ((x0, y0), (x1, y0), (x1, y1), (x0, y1)))
+        b.interiors[rid] = (r4(x0 + t), r4(y0 + t), r4(x1 - t), r4(y1 - t))
+        ids.append(rid)
+    edges = shared_edges(rects, cfg.door_width + 2 * DOOR_END_MARGIN)
+    hallways = {i for i, (hall, _) in enumerate(plan) if hall}
+    keys = rng.random(len(edges))
+    order = sorted(range(len(edges)), key=lambda k: (not ({edges[k].a, edges[k].b} & hallways), keys[k]))
+    parent = list(range(len(rects)))
+
+    def find(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    tree, rest = [], []
+    for k in order:
+        ra, rb = find(edges[k].a), find(edges[k].b)
+        if ra != rb:
+            parent[ra] = rb
+            tree.append(edges[k])
+        else:
+            rest.append(edges[k])
+    if len({find(i) for i in range(len(rects))}) > 1:
+        raise _Retry("rooms are not all joined by shared walls long enough for a door")
+    n_extra = max(1, int(round(EXTRA_DOOR_FRACTION * len(rest)))) if rest else 0
+    extra = rest[:n_extra]
+    kinds = ["normal"] * len(tree)
+    for _ in extra:
+        u = rng.random()
+        kinds.append("partly_closed" if u < cfg.partly_closed_door_prob
+                     else "narrow" if u < cfg.partly_closed_door_prob + cfg.narrow_door_prob else "normal")
+    if extra and cfg.partly_closed_door_prob > 0 and "partly_closed" not in kinds:
+        kinds[len(tree)] = "partly_closed"
+    openings, out = [], []
+    for e, kind in zip(tree + extra, kinds, strict=True):
+        width = cfg.narrow_door_width if kind == "narrow" else r4(rng.uniform(cfg.door_width_min, cfg.door_width))
+        pos = r4(rng.uniform(e.lo + width / 2 + DOOR_END_MARGIN, e.hi - width / 2 - DOOR_END_MARGIN))
+        center = (e.fixed, pos) if e.axis == "y" else (pos, e.fixed)
+        open_fraction = 1.0
+        if kind == "partly_closed":
+            hi_open = min(0.35, (2 * b.robot_radius - 0.1) / width)
+            open_fraction = r4(rng.uniform(0.15, max(0.15, hi_open)))
+        hinge = "low" if rng.random() < 0.5 else "high"
+        did = b.new_id("door")
+        b.doors[did] = Door(did, (ids[e.a], ids[e.b]), (r4(center[0]), r4(center[1])), e.axis, r4(width),
+                            open_fraction, hinge)
+        openings.append((e.axis, e.fixed, pos, width))
+        out.append((did, ids[e.a], ids[e.b]))
+    for start, end in plan_walls(rects, openings):
+        wid = b.new_id("wall")
+        b.walls[wid] = Wall(wid, start, end, r4(cfg.wall_thickness), r4(cfg.wall_height))
+    return out
+
+
 def _add_wall(b: _Build, along: str, fixed: float, s: float, e: float) -> None:
     wid = b.new_id("wall")
     if along == "y":
@@ -264,7 +340,7 @@ def _try_place_furniture(b: _Build, rid: str, category: str, tries: int = 30) ->
 
 def _place_all_furniture(b: _Build) -> None:
     cat, n_target = b.cat, b.cfg.n_furniture
-    rooms = list(b.rooms.values())
+    rooms = [r for r in b.rooms.values() if r.type != HALLWAY]  # hallways stay clear
     max_core = max(len(cat.rooms[r.type].core) for r in rooms)
     for k in range(max_core):
         for r in rooms:
@@ -533,10 +609,10 @@ def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
     want_all = all(c.target_room_type in house_types or c.target_room_type is None for c in cat.commands)
     fallback = None
     for attempt in range(MAX_ATTEMPTS):
-        rng = np.random.default_rng([seed, attempt])
+        rng = np.random.default_rng(scene_seed(seed, attempt))
         b = _Build(cat, cfg, rng, robot_radius)
         try:
-            _floor_plan(b)
+            (_hallway_plan if cfg.layout == "hallway" else _floor_plan)(b)
             _place_all_furniture(b)
             supported = _place_all_objects(b)
         except _Retry as e:
