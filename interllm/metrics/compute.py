@@ -50,7 +50,7 @@ from interllm.core.results import ActionResult
 from interllm.core.seeding import bootstrap_seed
 from interllm.errors import UserError
 from interllm.io import atomic_write_text, read_json, write_json
-from interllm.metrics import stats
+from interllm.metrics import manipulation, stats
 
 MANIPULATION_KINDS = ("pickup", "place")
 PER_OBJECT_FIELDS = ("planner", "scene", "mission", "command_index", "command", "slot", "object_index",
@@ -369,7 +369,8 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     Writes (atomically): ``metrics.json`` (DVC metrics, rounded floats, sorted keys),
     ``per_object.csv``, ``per_command.csv``, ``per_mission.csv``, ``cumulative.csv`` (x =
     object_index, y = m_overall_cum), ``per_object_summary.csv`` (mean + CI per planner and
-    object_index for each metric), ``semantic_accuracy.csv`` and ``semantic_inferences.csv``.
+    object_index for each metric), ``per_manipulation.csv`` and ``manipulation_attributes.csv``
+    (``interllm.metrics.manipulation``), ``semantic_accuracy.csv`` and ``semantic_inferences.csv``.
     Returns the metrics.json dict.
     """
     g = Gammas.from_config(cfg)
@@ -394,6 +395,8 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         for r in stats.group_mean_ci(po, ("planner", "object_index"), metric, B, ci, seed):
             summary.append({"planner": r["planner"], "object_index": r["object_index"], "metric": metric,
                             "mean": r["mean"], "ci_lo": r["ci_lo"], "ci_hi": r["ci_hi"], "n": r["n"]})
+    man_rows = manipulation.manipulation_rows(records, manipulation.load_scenes(scenes_dir, (r.scene_id for r in records)))
+    man_attr = manipulation.attribute_table(man_rows, B, ci, seed)
     inf_rows = [row for rec in records for row in stats.inference_rows(rec, temp)]
     sem = stats.semantic_accuracy(inf_rows)
 
@@ -427,6 +430,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         "semantic_accuracy": {f"{r['planner']}@{r['temperature']}": {
             k: r[k] for k in ("accuracy", "unknown_share", "accuracy_known", "n_matched", "n_inferences")}
             for r in sem},
+        "manipulation": manipulation.manipulation_summary(man_rows),
         "llm_calls": {stage: {k: c[k] for k in ("calls", "failed")} for stage, c in calls.items()},
         "settings": {"gamma_nav": g.nav, "gamma_man": g.man, "gamma_obj": g.obj, "bootstrap_samples": B,
                      "ci": ci, "seed": seed, "temperature": temp, "reference": reference,
@@ -440,6 +444,9 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     write_csv(out / "cumulative.csv", cum, ("planner", "object_index", "m_overall_cum", "ci_lo", "ci_hi", "n"))
     write_csv(out / "per_object_summary.csv", summary,
               ("planner", "object_index", "metric", "mean", "ci_lo", "ci_hi", "n"))
+    write_csv(out / "per_manipulation.csv", man_rows, manipulation.FIELDS)
+    write_csv(out / "manipulation_attributes.csv", man_attr,
+              ("attribute", "bin", "n", "c_man", "ci_lo", "ci_hi", "sr_man", "hard_share"))
     write_csv(out / "semantic_accuracy.csv", sem,
               ("temperature", "planner", "n_inferences", "n_matched", "n_unmatched", "n_correct", "n_unknown",
                "accuracy", "unknown_share", "accuracy_known"))
