@@ -8,6 +8,7 @@
     interllm scene import-procthor house.json --out my_scene/
     interllm report --sweeps multirun/                   # report + ablation tables of multiruns
     interllm cache stats [--dir data/llm_cache]
+    interllm cache prune --keep 'data/**/llm_calls.jsonl' [--delete]   # drop entries no run used
     interllm results diff [--reference HEAD] [--check]   # metrics.json against the committed one
     interllm llm probe [llm.backend=openai llm.base_url=... llm.model=...]   # what the LLM server does
 """
@@ -112,6 +113,25 @@ def _cache_stats(args) -> int:
     files = list(d.rglob("*.json")) if d.is_dir() else []
     size = sum(f.stat().st_size for f in files)
     print(f"{d}: {len(files)} entries, {size / 1e6:.2f} MB")
+    return 0
+
+
+def _cache_prune(args) -> int:
+    """List (or with --delete remove) the entries no call log under the --keep globs names."""
+    from interllm.llm.cache import keys_in_call_logs, stale_entries  # lazy: a command loads only its own code
+
+    logs = sorted({p for g in args.keep for p in Path(".").glob(g)})
+    if not logs:
+        print(f"interllm cache prune: error: no call log matches --keep {args.keep}; nothing would be kept, "
+              f"so nothing is removed", file=sys.stderr)
+        return 2
+    keep = keys_in_call_logs(logs)
+    stale = stale_entries(args.dir, keep)
+    for p in stale:
+        if args.delete:
+            p.unlink()
+    verb = "removed" if args.delete else "would remove (pass --delete)"
+    print(f"{args.dir}: {len(keep)} keys named by {len(logs)} call logs; {verb} {len(stale)} other entries")
     return 0
 
 
@@ -226,6 +246,10 @@ def _main(argv: list[str] | None = None) -> int:
     ca = sub.add_parser("cache", help="LLM response cache tools").add_subparsers(dest="ccmd", required=True)
     st = ca.add_parser("stats")
     st.add_argument("--dir", default="data/llm_cache")
+    pu = ca.add_parser("prune", help="drop the entries that no call log names (what the committed runs used)")
+    pu.add_argument("--dir", default="data/llm_cache")
+    pu.add_argument("--keep", nargs="+", required=True, help="globs of llm_calls.jsonl call logs whose keys stay")
+    pu.add_argument("--delete", action="store_true", help="remove them (default: only count)")
     rs = sub.add_parser("results", help="compare results").add_subparsers(dest="rcmd", required=True)
     rd = rs.add_parser("diff", help="metrics.json against a git revision's: what moved, which conclusions changed")
     rd.add_argument("--reference", default="HEAD", help="git revision (default HEAD)")
@@ -251,7 +275,7 @@ def _main(argv: list[str] | None = None) -> int:
         return {"generate": _scene_generate, "validate": _scene_validate,
                 "import-procthor": _scene_import}[args.scmd](args)
     if args.cmd == "cache":
-        return _cache_stats(args)
+        return _cache_prune(args) if args.ccmd == "prune" else _cache_stats(args)
     if args.cmd == "report":
         return _report(args)
     return 2

@@ -230,3 +230,21 @@ def test_a_client_that_loses_the_race_returns_the_stored_answer(tmp_path):
     b = make_client(LLMConfig(cache_dir=str(tmp_path / "cache")), backend=DeterministicBackend(generate_fn=meanwhile))
     r = b.complete(BASE)
     assert not r.cached and r.parsed == {"a": 1} and r.text == '{"a": 1}'
+
+
+def test_prune_keeps_exactly_the_entries_the_call_logs_name(tmp_path, monkeypatch):
+    from interllm.cli import main
+
+    cache = ResponseCache(tmp_path / "cache")
+    for key in ("a" * 64, "b" * 64, "c" * 64):
+        cache.put(key, {"purpose": "test"}, {"text": key[0]})
+    log = tmp_path / "run" / "llm_calls.jsonl"
+    log.parent.mkdir()
+    log.write_text(json.dumps({"key": "a" * 64}) + "\n" + json.dumps({"key": "c" * 64}) + "\n{torn", encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main(["cache", "prune", "--dir", "cache", "--keep", "run/*.jsonl"]) == 0  # a dry run
+    assert len(list((tmp_path / "cache").glob("*/*.json"))) == 3
+    assert main(["cache", "prune", "--dir", "cache", "--keep", "run/*.jsonl", "--delete"]) == 0
+    assert sorted(p.stem[0] for p in (tmp_path / "cache").glob("*/*.json")) == ["a", "c"]
+    assert main(["cache", "prune", "--dir", "cache", "--keep", "nothing/*.jsonl", "--delete"]) == 2  # keeps all
+    assert len(list((tmp_path / "cache").glob("*/*.json"))) == 2

@@ -20,6 +20,7 @@ import hashlib
 import json
 import logging
 import os
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Optional
 
@@ -49,6 +50,27 @@ def cache_key(payload: dict) -> str:
 
 def response_checksum(response: dict) -> str:
     return hashlib.sha256(jsonfmt.compact(response).encode("utf-8")).hexdigest()
+
+
+def keys_in_call_logs(paths: Iterable[str | os.PathLike]) -> set[str]:
+    """The cache keys of every call in some ``llm_calls.jsonl`` call logs (unreadable lines, e.g. the
+    torn last line of a killed run, are skipped)."""
+    keys: set[str] = set()
+    for p in paths:
+        with open(p, encoding="utf-8") as f:
+            for line in f:
+                try:
+                    k = json.loads(line).get("key")
+                except (json.JSONDecodeError, AttributeError):
+                    continue
+                if isinstance(k, str) and k:
+                    keys.add(k)
+    return keys
+
+
+def stale_entries(cache_dir: str | os.PathLike, keep: set[str]) -> list[Path]:
+    """Entries of ``cache_dir`` whose key is not in ``keep``, sorted."""
+    return sorted(p for p in Path(cache_dir).glob("*/*.json") if p.stem not in keep)
 
 
 class ResponseCache:
