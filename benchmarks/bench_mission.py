@@ -87,7 +87,8 @@ def main() -> None:
     cfg = OmegaConf.to_object(compose(["llm.cache_mode=replay"]))
     cfg.llm.cache_dir = str(ROOT / "data" / "llm_cache")
     scene = generate_scene(cfg.scene, 0, robot_radius=cfg.sim.robot_radius)
-    mission = generate_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution)[0]
+    mission = generate_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
+                                footprint_radius=cfg.sim.footprint_radius)[0]
     client = make_client(cfg.llm)
     cands = generate_initial_candidates(scene, mission, client, cfg)
     grids = {k: rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, k) for k in ("presumed", "true")}

@@ -99,3 +99,15 @@ def test_render_png(scene, tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
     assert data == b.read_bytes()
     assert b"Software" not in data and b"Creation" not in data
+
+
+def test_start_poses_keep_the_true_footprint_clear(scene):
+    """With sim.footprint_radius = 0.30 m the robot never starts touching a wall or furniture."""
+    from interllm.config import SimConfig
+    from interllm.sim.world import World
+
+    missions = generate_missions(scene, MissionConfig(n_missions=10), 0.25, footprint_radius=0.30)
+    world = World(scene, SimConfig(footprint_radius=0.30))
+    for m in missions:
+        world.reset(m)
+        assert world.physics.base_contacts() == [], m.start_pose

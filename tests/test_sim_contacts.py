@@ -56,3 +56,13 @@ def test_a_hallway_wider_than_the_footprint_passes_in_its_middle():
     assert r.success and r.collisions == 0
     hall = r.driven_path[(r.driven_path[:, 0] > 3.3) & (r.driven_path[:, 0] < 5.7)]
     assert len(hall) and abs(hall[:, 1] - HALL_Y).max() < 0.075  # within 0.075 m of the centre line
+
+
+def test_a_base_put_against_a_wall_drives_away_without_a_collision():
+    """Started touching room A's south wall (face at y = 0.05, centre 0.33 m from it with a 0.30 m
+    footprint): what it stands against is no collision until it has come free of it."""
+    w = World(hallway_house(0.75), SimConfig(footprint_radius=0.30, clearance_cost=2.0))
+    w.reset(Mission("m0", "hallway", (1.0, 0.33, 0.0), "counter_1", ()))
+    assert {(k, s) for _, _, k, s in w.physics.base_contacts()} == {("wall", "wall_0")}
+    r = w.execute(Action("navigate", "sofa_1", room="room_b"))
+    assert r.success and r.collisions == 0

@@ -22,7 +22,13 @@ from interllm.io import read_json, write_json
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.geometry import r4
 from interllm.scene.graph import Command, Goal, Mission, SceneGraph
-from interllm.scene.grid import approach_cells, free_components, largest_component, rasterize
+from interllm.scene.grid import (
+    approach_cells,
+    clear_of_obstacles,
+    free_components,
+    largest_component,
+    rasterize,
+)
 from interllm.scene.reachability import REACH_MARGIN
 
 MISSIONS_SCHEMA_VERSION = 1
@@ -40,11 +46,13 @@ def supported_commands(scene: SceneGraph, n_objects: int, catalog: Catalog | Non
 
 
 def start_pose(scene: SceneGraph, furniture_id: str, grid, robot_radius: float,
-               labels: np.ndarray | None = None) -> tuple[float, float, float] | None:
+               labels: np.ndarray | None = None, standable: np.ndarray | None = None
+               ) -> tuple[float, float, float] | None:
     """A start pose (x [m], y [m], yaw [rad]) on a free cell of ``grid`` next to a furniture.
 
     The cell is in the largest free region, within ``robot_radius + REACH_MARGIN`` of the footprint,
-    the one closest to the footprint centre (ties: lowest row, col); yaw faces the centre.
+    where the true footprint touches nothing if ``standable`` (bool [rows, cols]) says so for any
+    such cell, the one closest to the footprint centre (ties: lowest row, col); yaw faces the centre.
     """
     if labels is None:
         labels, _ = free_components(grid)
@@ -56,6 +64,8 @@ def start_pose(scene: SceneGraph, furniture_id: str, grid, robot_radius: float,
     cells = cells[labels[cells[:, 0], cells[:, 1]] == main]
     if not len(cells):
         return None
+    if standable is not None and standable[cells[:, 0], cells[:, 1]].any():
+        cells = cells[standable[cells[:, 0], cells[:, 1]]]
     xy = grid.cell_to_world(cells)
     d = np.hypot(xy[:, 0] - f.center[0], xy[:, 1] - f.center[1])
     k = int(np.lexsort((cells[:, 1], cells[:, 0], np.round(d, 6)))[0])
@@ -64,10 +74,13 @@ def start_pose(scene: SceneGraph, furniture_id: str, grid, robot_radius: float,
 
 
 def generate_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float = 0.25,
-                      grid_resolution: float | None = None, catalog: Catalog | None = None) -> list[Mission]:
+                      grid_resolution: float | None = None, catalog: Catalog | None = None,
+                      footprint_radius: float | None = None) -> list[Mission]:
     """``cfg.n_missions`` missions for ``scene`` (deterministic in scene id and cfg.seed).
 
     robot_radius: base radius [m] (grid inflation for the start pose).
+    footprint_radius: [m] the base's true contact radius (``sim.footprint_radius``); a start pose
+        keeps the whole footprint clear of obstacles where it can (None: the grid's radius will do).
     grid_resolution: [m] per cell; default ``scene.meta["grid_resolution"]`` or 0.05.
     """
     cfg.validate()
@@ -80,9 +93,11 @@ def generate_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float
     res = grid_resolution or float(scene.meta.get("grid_resolution", 0.05))
     grid = rasterize(scene, res, robot_radius, doors="true")
     labels, _ = free_components(grid)
+    extra = 0.0 if footprint_radius is None else float(footprint_radius) - robot_radius
+    standable = clear_of_obstacles(grid.free, extra, res)
     starts = {}
     for fid in sorted(scene.furniture):
-        p = start_pose(scene, fid, grid, robot_radius, labels)
+        p = start_pose(scene, fid, grid, robot_radius, labels, standable)
         if p is not None:
             starts[fid] = p
     if not starts:

@@ -6,7 +6,8 @@ controls: turn by ``sim.turn`` (45°) and move forward by ``sim.step`` (5 cm). A
 the base pose is set in MuJoCo and the contacts of the base with walls, door leaves and
 furniture are queried (``mj_kinematics`` + ``mj_collision``).
 
-On a contact: ``collisions += 1``, the belief map gets the contact area (a disc of radius
+Contacts the base has where the action starts (it was put there, it did not drive into them) do
+not count until the base has come free of them. On a contact: ``collisions += 1``, the belief map gets the contact area (a disc of radius
 robot_radius + one cell around the contact point) and, for a door leaf, the leaf's footprint
 grown by the same amount, as occupied; the robot backs off ``sim.backoff`` [m] along the way it
 came and replans. More than ``sim.max_nav_replans`` collisions, or no path left, fail the action
@@ -106,6 +107,9 @@ def _drive(cfg: SimConfig, res: float, physics: MujocoWorld, belief: BeliefMap, 
     physics.set_base(x, y, yaw)
     physics.forward()
     samples.append(physics.sample(now()))
+    # what the base already touches where it stands (it was put there, it did not drive into it)
+    # is no collision until the base has come free of it
+    touching = {gid for gid, _, _, _ in physics.base_contacts()}
     presumed = None
     last_hit = ("", "")
     reason = ""
@@ -151,6 +155,10 @@ def _drive(cfg: SimConfig, res: float, physics: MujocoWorld, belief: BeliefMap, 
                 driven.append((x, y))
                 leg.append((x, y))
                 contacts = physics.base_contacts()
+                if touching:
+                    if not any(c[0] in touching for c in contacts):
+                        touching = set()  # free of what it stood against: every contact counts now
+                    contacts = [c for c in contacts if c[0] not in touching]
                 if contacts:
                     hit = contacts
                     break

@@ -33,7 +33,8 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
         atomic_write_bytes(d / "grid.npz", OccupancyGrid.pair_npz_bytes(presumed, true, cfg.sim.robot_radius))
         atomic_write_text(d / "scene.xml", build_world_spec(scene, robot=False, sim_cfg=cfg.sim).to_xml())
         save_missions(d / "missions.json",
-                      generate_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution))
+                      generate_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
+                                        footprint_radius=cfg.sim.footprint_radius))
         render_topdown(scene, d / "topdown.png", grid=presumed)
         ids.append(scene.id)
     return ids
