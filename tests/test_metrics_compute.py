@@ -199,3 +199,35 @@ def test_aggregate_errors_name_the_fix(tmp_path):
     write_json(tmp_path / "runs" / "inter_llm" / "s9" / "m000.json", {**record().to_dict(), "scene_id": "s9"})
     with pytest.raises(MetricsInputError, match="scene.json"):
         aggregate(tmp_path / "runs", tmp_path / "scenes", ExperimentConfig(), tmp_path / "m")
+
+
+def _one(cmds: list) -> MissionRecord:
+    return MissionRecord("inter_llm", "s0", "m000", cmds, sim_time=1.0)
+
+
+def _breakfast(actions, final) -> CommandRecord:
+    return CommandRecord("breakfast", "Breakfast on the dining table.",
+                         GoalRecord(("apple", "bread"), ("dining_table",), 1), summary("breakfast", 0, 0, 0, []),
+                         actions, final)
+
+
+def test_sr_obj_counts_only_what_the_robot_delivered():
+    g = Gammas(10.0, 100.0, 100.0)
+    scene = {"category": {"apple_1": "apple"}, "furniture": {"apple_1": "dining_table"}}  # on the target already
+    # a failed pickup of an object standing on its target: no delivery
+    failed = _breakfast([man("pickup", "apple_1", "dining_table", 0.0, 5.0, ok=False)], {"apple_1": "dining_table"})
+    assert mission_rows(_one([failed]), scene, g)[0][0]["sr_obj"] == 0.0
+    # picked up from the target and put back on it: no progress
+    back = _breakfast([man("pickup", "apple_1", "dining_table", 1.0, 3.0),
+                       man("place", "apple_1", "dining_table", 1.0, 3.0)], {"apple_1": "dining_table"})
+    assert mission_rows(_one([back]), scene, g)[0][0]["sr_obj"] == 0.0
+    # from the counter onto the table: delivered
+    elsewhere = {"category": {"apple_1": "apple"}, "furniture": {"apple_1": "counter_1"}}
+    moved = _breakfast([man("pickup", "apple_1", "counter_1", 1.0, 3.0),
+                        man("place", "apple_1", "dining_table", 1.0, 3.0)], {"apple_1": "dining_table"})
+    assert mission_rows(_one([moved]), elsewhere, g)[0][0]["sr_obj"] == 1.0
+    # picked up in one command, carried, put on the target in the next: delivered in the second
+    carry = _breakfast([man("pickup", "apple_1", "counter_1", 1.0, 3.0)], {"apple_1": "held"})
+    put = _breakfast([man("place", "apple_1", "dining_table", 1.0, 3.0)], {"apple_1": "dining_table"})
+    objs = mission_rows(_one([carry, put]), elsewhere, g)[0]
+    assert [r["sr_obj"] for r in objs] == [0.0, 1.0]

@@ -149,3 +149,13 @@ def test_report_missing_metrics_names_stage(tmp_path):
 
     with pytest.raises(FileNotFoundError, match="aggregate"):
         build_report(tmp_path, tmp_path, tmp_path, tmp_path / "out", ExperimentConfig())
+
+
+@pytest.mark.parametrize("lo, hi, verdict", [(2.0, 9.0, " holds on our runs"), (-4.6, 5.7, "cannot be told"),
+                                             (-9.0, -2.0, "does not hold")])
+def test_the_ordering_is_judged_by_the_paired_intervals_not_the_mean_rank(lo, hi, verdict):
+    from interllm.metrics.report import ordering_sentence
+
+    metrics = {"planners": {"inter_llm": {"m_overall": 100.0}, "sayplan": {"m_overall": 101.0}},
+               "improvement": {"inter_llm_vs_sayplan": {"pct": 1.0, "ci_lo": lo, "ci_hi": hi}}}
+    assert verdict in ordering_sentence(metrics)  # Inter-LLM has the lowest mean in every case

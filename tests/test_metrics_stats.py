@@ -28,7 +28,9 @@ def test_bootstrap_deterministic_by_seed():
 
 
 def test_bootstrap_edge_cases():
-    assert bootstrap_mean_ci([4.0], 100) == (4.0, 4.0, 4.0)
+    m, lo, hi = bootstrap_mean_ci([4.0, 5.0, 6.0, 7.0], 100)  # fewer than five: a mean, no interval
+    assert m == 5.5 and np.isnan(lo) and np.isnan(hi)
+    assert not np.isnan(bootstrap_mean_ci([4.0, 5.0, 6.0, 7.0, 8.0], 100)[1])
     assert all(np.isnan(v) for v in bootstrap_mean_ci([], 100))
     assert bootstrap_mean_ci([2.0] * 10, 100) == (2.0, 2.0, 2.0)
 
@@ -54,9 +56,11 @@ def test_ci_width_shrinks_with_level():
 def test_paired_improvement_by_hand():
     assert improvement_pct([80, 90], [100, 100]) == pytest.approx(15.0)
     # the reference is exactly half of every baseline: every resample gives 50 %
-    base = [100.0, 220.0, 340.0, 90.0]
+    base = [100.0, 220.0, 340.0, 90.0, 150.0]
     pct, lo, hi = paired_improvement([b / 2 for b in base], base, 500, 0.95, 3)
     assert (pct, lo, hi) == pytest.approx((50.0, 50.0, 50.0))
+    pct, lo, hi = paired_improvement([b / 2 for b in base[:4]], base[:4], 500, 0.95, 3)  # four pairs
+    assert pct == pytest.approx(50.0) and np.isnan(lo) and np.isnan(hi)
     with pytest.raises(ValueError, match="length"):
         paired_improvement([1.0], [1.0, 2.0])
 
@@ -93,4 +97,5 @@ def test_group_mean_ci_and_counts():
 
 def test_bootstrap_seed_stable():
     assert bootstrap_seed(0, "x") == bootstrap_seed(0, "x") != bootstrap_seed(1, "x")
-    assert bootstrap_seed(0, "inter_llm") == 3799621879  # CRC32 of b"0:inter_llm": same in every process
+    # SHA-256 of b'["bootstrap",0,"inter_llm"]', 4 bytes big-endian, top bit cleared: same in every process
+    assert bootstrap_seed(0, "inter_llm") == 2022904059

@@ -20,9 +20,10 @@ The paper's unit is the *object*. How executed actions become per-object metrics
   ``t_man`` = Σ simulated time [s] of its navigate / pickup+place actions, ``t_exe = t_nav + t_man``;
   ``sr_man`` = mean ``success_rate`` of its pickup/place actions (0 without any).
 * ``sr_obj`` ∈ {0, 1}: the object has a category in ``goal.categories`` (from the scene graph,
-  never from the LLM) and its location after the command (``final_locations``; if absent, its
-  last successful place in the command, else its place in the scene) is one of
-  ``goal.target_furniture``.
+  never from the LLM), the robot delivered it in this command (a successful place of it), it
+  did not stand on a target when the command began (an object already there is no goal; a
+  pick-and-put-back is no progress), and its location after the command (``final_locations``; if
+  absent, its last successful place in the command) is one of ``goal.target_furniture``.
 * ``m_overall = γ_nav·cc + t_exe + d + γ_man·(1 − sr_man) + γ_obj·(1 − sr_obj)``
   (γ_nav, γ_man: ``SimConfig``; γ_obj: ``MetricsConfig``).
 
@@ -190,10 +191,27 @@ def _location(obj: str, command: CommandRecord, scene: Mapping) -> Optional[str]
     return scene.get("furniture", {}).get(obj)
 
 
-def fulfilled(obj: str, command: CommandRecord, scene: Mapping) -> bool:
-    """sr_obj of one object: right category (scene graph) and ended on a target furniture."""
+def delivered(obj: str, command: CommandRecord) -> bool:
+    """Whether the robot put ``obj`` down during the command (a successful place of it)."""
+    return any(a.success and a.action.kind == "place" and a.action.obj == obj for a in command.actions)
+
+
+def fulfilled(obj: str, command: CommandRecord, scene: Mapping, before: Optional[str] = None) -> bool:
+    """sr_obj of one object: right category (scene graph), delivered in this command and ended on a
+    target furniture, having started the command elsewhere (``before``: where it stood when the
+    command began; an object already on a target is no goal, and picking it up and putting it back
+    is no progress)."""
+    targets = set(command.goal.target_furniture)
     cat = scene.get("category", {}).get(obj)
-    return cat in set(command.goal.categories) and _location(obj, command, scene) in set(command.goal.target_furniture)
+    return (cat in set(command.goal.categories) and delivered(obj, command) and before not in targets
+            and _location(obj, command, scene) in targets)
+
+
+def _moved(where: dict, command: CommandRecord) -> None:
+    """Update ``where`` (object -> furniture or "held") with the command's successful pickups and places."""
+    for a in command.actions:
+        if a.success and a.action.obj is not None and a.action.kind in MANIPULATION_KINDS:
+            where[a.action.obj] = "held" if a.action.kind == "pickup" else str(a.action.furniture)
 
 
 class MissionRows:
@@ -208,6 +226,7 @@ class MissionRows:
         self.objects: list[dict] = []
         self.commands: list[dict] = []
         self._cum = 0.0
+        self.where: dict[str, str] = dict(scene.get("furniture", {}))  # object -> furniture / "held"
 
     def add(self, c: CommandRecord) -> tuple[list[dict], dict]:
         """The per-object rows and the per-command row of the next command of the mission."""
@@ -225,7 +244,7 @@ class MissionRows:
             t_nav = float(sum(float(a.time) for a in nav))
             t_man = float(sum(float(a.time) for a in man))
             sr_man = (sum(float(a.success_rate) for a in man) / len(man)) if man else 0.0
-            sr_obj = 1.0 if any(fulfilled(o, c, self.scene) for o in slot_objs[k]) else 0.0
+            sr_obj = 1.0 if any(fulfilled(o, c, self.scene, self.where.get(o)) for o in slot_objs[k]) else 0.0
             m = m_overall(cc, t_nav + t_man, d, sr_man, sr_obj, self.g)
             self._cum += m
             rows.append({
@@ -237,6 +256,7 @@ class MissionRows:
                 "t_nav": t_nav, "t_man": t_man, "t_exe": t_nav + t_man, "sr_man": sr_man,
                 "sr_obj": sr_obj, "m_overall": m, "m_overall_cum": self._cum})
         self.objects.extend(rows)
+        _moved(self.where, c)
         s = c.summary
         row = {"planner": self.planner, "scene": self.scene_id, "mission": self.mission_id,
                "command_index": ci + 1, "command": c.command_id, "n_objects": n,

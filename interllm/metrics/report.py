@@ -214,7 +214,9 @@ def _cell(metric: str, v: float, paper: Optional[float]) -> str:
 
 
 def ordering_sentence(metrics: Mapping, reference: str = "inter_llm") -> str:
-    """One sentence: does the paper's ordering (reference best = lowest mean m_overall) hold?"""
+    """One sentence: does the paper's ordering (reference best on m_overall) hold? It holds when
+    every paired improvement of the reference has its CI above 0, does not hold when one has its CI
+    below 0, and otherwise the runs cannot tell (the mean rank alone decides nothing)."""
     pl = metrics.get("planners", {})
     if reference not in pl or len(pl) < 2:
         return (f"The paper's ordering ({plots.label(reference)} best on m_overall) cannot be judged: "
@@ -222,15 +224,29 @@ def ordering_sentence(metrics: Mapping, reference: str = "inter_llm") -> str:
     ranked = sorted(pl, key=lambda p: (float("inf") if pl[p].get("m_overall") is None else pl[p]["m_overall"], p))
     figs = "; ".join(f"{plots.label(p)} {_f(pl[p].get('m_overall'))} [{_f(pl[p].get('m_overall_ci_lo'))}, "
                      f"{_f(pl[p].get('m_overall_ci_hi'))}]" for p in ranked)
-    holds = ranked[0] == reference
     imp = metrics.get("improvement", {})
     imps = "; ".join(f"{plots.label(reference)} vs {plots.label(k.split('_vs_', 1)[1])}: "
                      f"{_f(v.get('pct'))}% [{_f(v.get('ci_lo'))}, {_f(v.get('ci_hi'))}]"
                      for k, v in sorted(imp.items()))
-    verdict = "holds" if holds else "does not hold"
-    return (f"The paper's ordering ({plots.label(reference)} lowest mean m_overall per mission) {verdict} "
-            f"on our runs: {figs} (mean per mission, {len(pl)} planners; bootstrap CI)."
-            + (f" Paired improvement: {imps}." if imps else ""))
+    lows = [_num_or_nan(v.get("ci_lo")) for v in imp.values()]
+    highs = [_num_or_nan(v.get("ci_hi")) for v in imp.values()]
+    if imp and all(x > 0 for x in lows):
+        verdict = "holds"
+    elif any(x < 0 for x in highs):
+        verdict = "does not hold"
+    else:
+        verdict = "cannot be told (a paired CI includes 0 or has too few pairs)"
+    best = "the lowest" if ranked[0] == reference else "not the lowest"
+    return (f"The paper's ordering ({plots.label(reference)} best on m_overall per mission, judged by the paired "
+            f"CIs) {verdict} on our runs; its mean is {best}: {figs} (mean per mission, {len(pl)} planners; "
+            f"bootstrap CI)." + (f" Paired improvement: {imps}." if imps else ""))
+
+
+def _num_or_nan(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
 
 
 def _gather(pairs: Sequence[tuple[str, str | os.PathLike]]) -> list[tuple[str, Path, dict]]:

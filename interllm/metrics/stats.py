@@ -20,19 +20,23 @@ from interllm.planning.costs import encode_cost
 CLASSES = ("easy", "medium", "hard")
 
 
+MIN_CI_SAMPLES = 5  # fewer samples (or pairs) give a mean but no interval: it would mean nothing
+
+
 def bootstrap_mean_ci(x: Sequence[float], n_boot: int = 2000, ci: float = 0.95, seed: int = 0
                       ) -> tuple[float, float, float]:
     """(mean, lo, hi): percentile bootstrap CI of the mean of ``x``.
 
-    n_boot: resamples B; ci: coverage in (0, 1); seed: Generator seed. One sample gives lo = hi =
-    mean; an empty sample gives NaNs.
+    n_boot: resamples B; ci: coverage in (0, 1); seed: Generator seed. Fewer than
+    ``MIN_CI_SAMPLES`` samples give the mean with NaN bounds (the report prints no interval); an
+    empty sample gives NaNs.
     """
     a = np.asarray(list(x), dtype=float)
     if a.size == 0:
         return float("nan"), float("nan"), float("nan")
     m = float(a.mean())
-    if a.size == 1:
-        return m, m, m
+    if a.size < MIN_CI_SAMPLES:
+        return m, float("nan"), float("nan")
     rng = np.random.default_rng(seed)
     idx = rng.integers(0, a.size, size=(int(n_boot), a.size))
     means = a[idx].mean(axis=1)
@@ -51,7 +55,8 @@ def improvement_pct(ref: Sequence[float], base: Sequence[float]) -> float:
 def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int = 2000,
                        ci: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
     """(pct, lo, hi): ``improvement_pct`` of paired samples (same scene and mission at the same
-    position) with a paired percentile bootstrap CI (pairs resampled jointly)."""
+    position) with a paired percentile bootstrap CI (pairs resampled jointly); NaN bounds from fewer
+    than ``MIN_CI_SAMPLES`` pairs."""
     r = np.asarray(list(ref), dtype=float)
     b = np.asarray(list(base), dtype=float)
     if r.shape != b.shape:
@@ -59,8 +64,8 @@ def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int 
     if r.size == 0:
         return float("nan"), float("nan"), float("nan")
     pct = improvement_pct(r, b)
-    if r.size == 1:
-        return pct, pct, pct
+    if r.size < MIN_CI_SAMPLES:
+        return pct, float("nan"), float("nan")
     rng = np.random.default_rng(seed)
     idx = rng.integers(0, r.size, size=(int(n_boot), r.size))
     mb = b[idx].mean(axis=1)
