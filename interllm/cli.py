@@ -58,21 +58,32 @@ def _scene_validate(args) -> int:
 
 def _scene_import(args) -> int:
     from interllm.io import atomic_write_text  # lazy: a command loads only its own code
-    from interllm.scene.importer import import_procthor  # lazy: a command loads only its own code
+    from interllm.scene.grid import rasterize  # lazy: a command loads only its own code
+    from interllm.scene.importer import (  # lazy: a command loads only its own code
+        ImportReport,
+        import_procthor,
+    )
+    from interllm.scene.render import render_topdown  # lazy: a command loads only its own code
     from interllm.scene.validate import (  # lazy: a command loads only its own code
         SceneValidationError,
         validate_scene,
     )
 
+    report = ImportReport()
     try:
-        scene = import_procthor(args.file)
+        scene = import_procthor(args.file, report=report)
         validate_scene(scene, source=str(args.file))
     except SceneValidationError as e:
         print(f"invalid: {e}", file=sys.stderr)
         return 1
     out = Path(args.out)
     atomic_write_text(out / "scene.json", scene.to_json())
-    print(f"wrote {out / 'scene.json'}; use it with scene.import_path={out / 'scene.json'}")
+    lines = report.lines() or ["nothing defaulted, dropped or moved"]
+    atomic_write_text(out / "import_report.txt", "\n".join(lines) + "\n")
+    render_topdown(scene, out / "topdown.png", grid=rasterize(scene, 0.05, 0.25, doors="presumed"))
+    print("\n".join(["import report:"] + [f"  {ln}" for ln in lines]))
+    print(f"wrote {out / 'scene.json'}, {out / 'import_report.txt'} and {out / 'topdown.png'}; use it with "
+          f"scene.import_path={out / 'scene.json'}")
     return 0
 
 

@@ -8,6 +8,7 @@ import json
 import pytest
 
 from interllm.scene import SceneValidationError, import_procthor, rasterize, validate_scene
+from interllm.scene.importer import ImportReport
 
 
 def _wall(room, x0, z0, x1, z1):
@@ -79,17 +80,18 @@ def test_import_from_file_and_json_round_trip(tmp_path):
     assert type(s).from_json(s.to_json()).to_json() == s.to_json()
 
 
-def test_missing_optional_fields_warn():
+def test_missing_optional_fields_are_one_report_line_each():
     h = _house()
     del h["rooms"][1]["roomType"]
     del h["doors"][0]["holePolygon"]
     del h["objects"][0]["children"][0]["position"]
-    with pytest.warns(UserWarning) as rec:
-        s = import_procthor(h)
-    text = " ".join(str(w.message) for w in rec)
-    assert "$.rooms[1].roomType missing" in text
-    assert "$.doors[0].holePolygon missing" in text
-    assert "$.objects[0].children[0].position missing" in text
+    rep = ImportReport()
+    s = import_procthor(h, report=rep)
+    assert rep.lines() == s.meta["import_report"]
+    assert rep.lines() == [
+        "1 × door without holePolygon: 1.0 m wide at its assetPosition (e.g. door|2|3)",
+        "1 × object without position: put at the centre of its parent (e.g. Apple|surface|2|1)",
+        "1 × room without roomType: typed 'room' (e.g. room|3)"]
     assert "room_1" in s.rooms and len(s.doors) == 1
 
 
@@ -119,7 +121,7 @@ ERRORS = [
      "$.doors[0].holePolygon: opening [3.5, 4.5] m is not inside wall"),
     (_set(["objects", 0, "position"], {"x": 20.0, "y": 0, "z": 20.0}), "$.objects[0].position:"),
     (_set(["objects", 1, "children", 0, "position"], {"x": 1.0, "y": 0.5, "z": 1.0}),
-     "$.objects[1].children[0].position: (1.0, 1.0) is not over its parent 'CoffeeTable|3|0'"),
+     "$.objects[1].children[0].position: (1.0, 1.0) is not over its parent 'coffee_table_1'"),
     (_del(["objects", 1, "id"]), "$.objects[1].id: required field is missing"),
 ]
 

@@ -10,6 +10,7 @@ largest free region, next to a start furniture, facing it.
 
 from __future__ import annotations
 
+import logging
 import math
 from pathlib import Path
 
@@ -32,6 +33,7 @@ from interllm.scene.grid import (
 from interllm.scene.reachability import REACH_MARGIN
 
 MISSIONS_SCHEMA_VERSION = 1
+log = logging.getLogger(__name__)
 
 
 class MissionError(UserError, ValueError):
@@ -108,26 +110,39 @@ def generate_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float
         return Command(cid, spec.text, Goal(spec.categories, spec.resolve_targets(scene), k))
 
     out = []
+    paper = [c.id for c in cat.paper_commands()]
     for i in range(cfg.n_missions):
         rng = np.random.default_rng(mission_seed(scene.id, cfg.seed, i))
-        paper = [c.id for c in cat.paper_commands()]
-        if i == 0 and cfg.include_paper_mission:
-            missing = [c for c in paper if c not in ok]
-            if missing:
-                raise MissionError(f"scene {scene.id!r} cannot host the paper mission: commands {missing} "
-                                   f"lack target furniture or {k} valid objects; set "
-                                   "mission.include_paper_mission=false or use a larger scene")
-            ids = paper
-        else:
-            n = cfg.commands_per_mission
-            ids = [ok[int(j)] for j in rng.permutation(len(ok))[:n]]
-            while len(ids) < n:  # fewer supported commands than asked: repeat some
-                ids.append(ok[int(rng.integers(len(ok)))])
+        ids = _mission_commands(scene.id, i, ok, paper if i == 0 and cfg.include_paper_mission else [],
+                                cfg.commands_per_mission, k, rng)
         fids = sorted(starts)
         start_f = fids[int(rng.integers(len(fids)))]
         out.append(Mission(id=f"m{i:03d}", scene_id=scene.id, start=starts[start_f], start_furniture=start_f,
                            commands=tuple(command(c) for c in ids)))
     return out
+
+
+def _mission_commands(scene_id: str, index: int, ok: list[str], wanted: list[str], n: int, k: int,
+                      rng: np.random.Generator) -> list[str]:
+    """The command ids of mission ``index``: the ``wanted`` ones (the paper's) the house can host, the
+    others replaced by supported catalog commands (one log line says which and why), or ``n`` drawn
+    from the supported ones; never the same command twice, so fewer than ``n`` when the house
+    supports fewer (said in one log line)."""
+    if wanted:
+        ids = [c for c in wanted if c in ok]
+        missing = [c for c in wanted if c not in ok]
+        repl = [ok[int(j)] for j in rng.permutation(len(ok)) if ok[int(j)] not in ids][:len(missing)] \
+            if missing else []
+        if missing:
+            log.warning("scene %s mission m%03d: the paper's command(s) %s need target furniture or %d objects "
+                        "the house lacks; replaced by %s", scene_id, index, missing, k, repl or "nothing")
+        ids += repl
+    else:
+        ids = [ok[int(j)] for j in rng.permutation(len(ok))[:n]]
+    if len(ids) < n:
+        log.warning("scene %s mission m%03d: only %d command(s) the house can host (%s); the mission has %d, "
+                    "not %d (mission.commands_per_mission)", scene_id, index, len(ok), ok, len(ids), n)
+    return ids
 
 
 def save_missions(path: str | Path, missions: list[Mission]) -> None:
