@@ -99,3 +99,31 @@ def test_bootstrap_seed_stable():
     assert bootstrap_seed(0, "x") == bootstrap_seed(0, "x") != bootstrap_seed(1, "x")
     # SHA-256 of b'["bootstrap",0,"inter_llm"]', 4 bytes big-endian, top bit cleared: same in every process
     assert bootstrap_seed(0, "inter_llm") == 2022904059
+
+
+def _inferences(pairs: list[tuple[str, str]]) -> list[dict]:
+    """Hand-made judged inferences: (truth, predicted)."""
+    return [{"temperature": 0.8, "planner": "inter_llm", "matched": 1, "truth": t, "predicted": p,
+             "correct": int(t == p)} for t, p in pairs]
+
+
+def test_table_ii_against_chance_and_the_majority_class():
+    from interllm.metrics.stats import semantic_accuracy
+
+    classes = ("easy", "medium", "hard")
+    # a model that guesses uniformly: each truth meets each prediction equally often (1/3 correct)
+    guess = [(t, p) for t in classes for p in classes] * 6
+    (row,) = semantic_accuracy(_inferences(guess + [("hard", "unknown")] * 6), 500, 0.95, 0)
+    assert row["accuracy_known"] == pytest.approx(1 / 3) and row["coverage"] == pytest.approx(54 / 60)
+    assert row["chance"] == pytest.approx(1 / 3) and row["majority"] == pytest.approx(1 / 3)
+    assert row["verdict"] == "cannot tell"
+    assert row["accuracy"] == pytest.approx(18 / 60)  # 'unknown' counts as wrong here
+    assert "hard>unknown:6" in row["confusion"] and "easy>easy:6" in row["confusion"]
+    # always answering "hard" when 80% of the truths are hard: 80% correct, but no better than the majority
+    lazy = [("hard", "hard")] * 40 + [("easy", "hard")] * 10
+    (row,) = semantic_accuracy(_inferences(lazy), 500, 0.95, 0)
+    assert row["majority"] == pytest.approx(0.8) and row["verdict"] == "cannot tell"
+    # a model that is right 45 times in 50 on balanced truths: above both baselines
+    good = [(c, c) for c in classes] * 15 + [("easy", "hard")] * 5
+    (row,) = semantic_accuracy(_inferences(good), 500, 0.95, 0)
+    assert row["verdict"] == "above the baselines" and row["accuracy_known_ci_lo"] > 0.8

@@ -418,7 +418,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     man_rows = manipulation.manipulation_rows(records, manipulation.load_scenes(scenes_dir, (r.scene_id for r in records)))
     man_attr = manipulation.attribute_table(man_rows, B, ci, seed)
     inf_rows = [row for rec in records for row in stats.inference_rows(rec, temp)]
-    sem = stats.semantic_accuracy(inf_rows)
+    sem = stats.semantic_accuracy(inf_rows, B, ci, seed)
 
     planners: dict[str, dict] = {}
     usage = stats.llm_usage(pm)
@@ -448,7 +448,9 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         "improvement": {f"{reference}_vs_{b}": v for b, v in
                         stats.compare_planners(pm, reference, "m_overall", B, ci, seed).items()},
         "semantic_accuracy": {f"{r['planner']}@{r['temperature']}": {
-            k: r[k] for k in ("accuracy", "unknown_share", "accuracy_known", "n_matched", "n_inferences")}
+            k: r[k] for k in ("accuracy", "accuracy_ci_lo", "accuracy_ci_hi", "unknown_share", "coverage",
+                              "accuracy_known", "accuracy_known_ci_lo", "accuracy_known_ci_hi", "chance",
+                              "majority", "verdict", "n_matched", "n_inferences")}
             for r in sem},
         "manipulation": manipulation.manipulation_summary(man_rows),
         "llm_calls": {stage: {k: c[k] for k in ("calls", "failed")} for stage, c in calls.items()},
@@ -469,7 +471,8 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
               ("attribute", "bin", "n", "c_man", "ci_lo", "ci_hi", "sr_man", "hard_share"))
     write_csv(out / "semantic_accuracy.csv", sem,
               ("temperature", "planner", "n_inferences", "n_matched", "n_unmatched", "n_correct", "n_unknown",
-               "accuracy", "unknown_share", "accuracy_known"))
+               "accuracy", "accuracy_ci_lo", "accuracy_ci_hi", "unknown_share", "coverage", "accuracy_known",
+               "accuracy_known_ci_lo", "accuracy_known_ci_hi", "chance", "majority", "verdict", "confusion"))
     write_csv(out / "semantic_inferences.csv", inf_rows,
               ("planner", "scene", "mission", "temperature", "command_index", "action", "predicted",
                "estimate", "matched", "actual_cost", "truth", "correct"))

@@ -339,8 +339,9 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     doc.p("Scoring rule: a command asking for n objects has n slots, the k-th distinct object the planner "
           "manipulated in it; a slot it never filled scores sr_man = 0 and sr_obj = 0 with no time or "
           "distance (m_overall = γ_man + γ_obj), as the paper's Table III scores an object it did not "
-          "deliver (0%, ×). sr_obj counts an object when its category is one the command asks for (from the "
-          "scene graph) and it ends the command on a target furniture.")
+          "deliver (0%, ×). sr_obj counts an object when the robot delivered it in the command (a successful "
+          "place) onto a target furniture, its category is one the command asks for (from the scene graph), and "
+          "it did not stand on a target when the command began (no goal; a pick-and-put-back is no progress).")
     doc.table(["planner", "missions", "m_overall / mission [CI]", "m_overall / object", "fulfilled", "sr_obj",
                "cc / mission", "d [m] / mission", "t_exe [s] / mission", "sr_man", "LLM calls / mission",
                "tokens in / mission", "tokens out / mission"], rows)
@@ -451,14 +452,22 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
             t = r["temperature"]
             paper = PAPER_TABLE_II.get(round(float(t), 1)) if t != "" else None
             sem_rows.append((float(t) if t != "" else -1.0, lab, [
-                _f(t, 1), lab, plots.label(str(r["planner"])), str(r["n_matched"]), _pct(r["accuracy"]),
-                _pct(r["unknown_share"]), "–" if paper is None else f"{paper:.0f}%"]))
+                _f(t, 1), lab, plots.label(str(r["planner"])), str(r["n_matched"]),
+                f"{_pct(r['accuracy'])} [{_pct(r.get('accuracy_ci_lo'))}, {_pct(r.get('accuracy_ci_hi'))}]",
+                _pct(r.get("coverage")),
+                f"{_pct(r['accuracy_known'])} [{_pct(r.get('accuracy_known_ci_lo'))}, "
+                f"{_pct(r.get('accuracy_known_ci_hi'))}]",
+                f"{_pct(r.get('chance'))} / {_pct(r.get('majority'))}", str(r.get("verdict", "–")),
+                "–" if paper is None else f"{paper:.0f}%"]))
     if sem_rows:
         rows = [row for _, _, row in sorted(sem_rows, key=lambda x: (x[0], x[1]))]
         doc.p("Prediction = class the LLM inferred for a manipulation action; truth = f_en of the cost measured "
-              "when that action first ran later in the mission; 'unknown' counts as wrong.")
-        doc.table(["temperature σ", "results", "planner", "inferences judged", "accuracy", "unknown share",
-                   "paper accuracy"], rows)
+              "when that action first ran later in the mission (only those inferences are judged). Accuracy "
+              "counts 'unknown' as wrong; coverage = share answered; accuracy when answered is compared with "
+              "chance (1/3 over easy / medium / hard) and the majority class (always the commonest true "
+              "class); the verdict says whether its 95% bootstrap CI lies above both.")
+        doc.table(["temperature σ", "results", "planner", "inferences judged", "accuracy [CI]", "coverage",
+                   "accuracy when answered [CI]", "chance / majority", "verdict", "paper accuracy"], rows)
     else:
         doc.p("No cost inferences were recorded (only Inter-LLM infers manipulation costs).")
 

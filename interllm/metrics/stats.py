@@ -174,9 +174,20 @@ def inference_rows(rec: MissionRecord, temperature: Optional[float]) -> list[dic
     return out
 
 
-def semantic_accuracy(rows: Iterable[Mapping]) -> list[dict]:
-    """Table II per (temperature, planner): accuracy = correct / matched inferences (unknown counts
-    as wrong), unknown_share = unknown / matched, accuracy_known = correct / matched non-unknown.
+CLASSES = ("easy", "medium", "hard")
+CHANCE = 1.0 / len(CLASSES)  # uniform guessing over the three cost classes
+
+
+def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> list[dict]:
+    """Table II per (temperature, planner), over the inferences whose action ran later (matched):
+
+    - accuracy = correct / matched ('unknown' counts as wrong), with its bootstrap CI;
+    - coverage = answered (not 'unknown') / matched; accuracy_known = correct / answered, with its CI;
+    - the baselines for accuracy_known: chance (1/3, uniform over easy / medium / hard) and the
+      majority class (always answering the commonest true class of the answered inferences);
+    - verdict: "above the baselines" when the CI of accuracy_known lies above both, "below chance"
+      when it lies below chance, else "cannot tell";
+    - confusion: "truth>predicted:count" pairs of the matched inferences.
     Inferences whose action never ran later in the mission are counted as ``n_unmatched``."""
     groups: dict[tuple, list[Mapping]] = {}
     for r in rows:
@@ -187,10 +198,35 @@ def semantic_accuracy(rows: Iterable[Mapping]) -> list[dict]:
         m = [r for r in g if int(r["matched"])]
         known = [r for r in m if r["predicted"] != "unknown"]
         nc = sum(int(r["correct"]) for r in m)
+        _, acc_lo, acc_hi = bootstrap_mean_ci([int(r["correct"]) for r in m], n_boot, ci,
+                                                bootstrap_seed(seed, f"semantic:{t}:{p}"))
+        ak, ak_lo, ak_hi = bootstrap_mean_ci([int(r["correct"]) for r in known], n_boot, ci,
+                                             bootstrap_seed(seed, f"semantic_known:{t}:{p}"))
+        truths = [str(r["truth"]) for r in known]
+        majority = max((truths.count(c) for c in CLASSES), default=0) / len(truths) if truths else float("nan")
+        conf: dict[str, int] = {}
+        for r in m:
+            k = f"{r['truth']}>{r['predicted']}"
+            conf[k] = conf.get(k, 0) + 1
         out.append({"temperature": t, "planner": p, "n_inferences": len(g), "n_matched": len(m),
                     "n_unmatched": len(g) - len(m), "n_correct": nc,
                     "n_unknown": len(m) - len(known),
-                    "accuracy": nc / len(m) if m else float("nan"),
+                    "accuracy": nc / len(m) if m else float("nan"), "accuracy_ci_lo": acc_lo,
+                    "accuracy_ci_hi": acc_hi,
                     "unknown_share": (len(m) - len(known)) / len(m) if m else float("nan"),
-                    "accuracy_known": nc / len(known) if known else float("nan")})
+                    "coverage": len(known) / len(m) if m else float("nan"),
+                    "accuracy_known": ak if known else float("nan"), "accuracy_known_ci_lo": ak_lo,
+                    "accuracy_known_ci_hi": ak_hi, "chance": CHANCE, "majority": majority,
+                    "verdict": _verdict(ak_lo, ak_hi, max(CHANCE, majority)),
+                    "confusion": " ".join(f"{k}:{v}" for k, v in sorted(conf.items()))})
     return out
+
+
+def _verdict(lo: float, hi: float, baseline: float) -> str:
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return "cannot tell"
+    if lo > baseline:
+        return "above the baselines"
+    if hi < CHANCE:
+        return "below chance"
+    return "cannot tell"

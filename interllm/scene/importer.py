@@ -79,9 +79,9 @@ class ImportReport:
         out = []
         for reason in sorted(self.items):
             got = self.items[reason]
-            ex = ", ".join(dict.fromkeys(got))
-            short = ", ".join(list(dict.fromkeys(got))[:examples])
-            out.append(f"{len(got)} × {reason} (e.g. {short}{', ...' if len(ex) > len(short) else ''})")
+            uniq = list(dict.fromkeys(got))
+            more = ", ..." if len(uniq) > examples else ""
+            out.append(f"{len(got)} × {reason} (e.g. {', '.join(uniq[:examples])}{more})")
         return out
 
 
@@ -97,7 +97,7 @@ def _type_name(o: dict) -> str:
         return head
     asset = str(o.get("assetId", ""))
     parts = [p for p in asset.split("_") if p.isalpha()]
-    if parts[:2] in (["Wall", "Decor"],):
+    if parts[:2] == ["Wall", "Decor"]:  # Wall_Decor_Painting_6, Wall_Decor_Photo_3V
         return "WallDecor"
     return parts[0] if parts else "object"
 
