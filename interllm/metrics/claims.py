@@ -1,0 +1,145 @@
+"""The paper's claims, each beside our figure with its CI and a verdict (holds / does not hold /
+cannot tell), and the number of missions a 10% paired difference needs.
+
+- ``ordering``: Inter-LLM has the lowest m_overall per mission. Holds when every paired
+  improvement of the reference has its CI above 0; does not hold when one lies below 0.
+- ``improvement_30``: "improves the overall mission performance by 30%" over each baseline. Holds
+  when 30% lies in the CI; does not hold when the CI lies below 30%; "exceeds" above it.
+- ``self_improvement``: Inter-LLM improves along a mission. Measured as a difference in
+  differences over the same missions: (reference − baseline) m_overall per object of the last
+  command minus that of the first command; holds when its CI lies below 0 (the reference gains
+  on the baseline as the mission goes on).
+- ``sigma_rise``: Table II's accuracy rises with σ. The least-squares slope of
+  accuracy-when-answered on σ, with a bootstrap CI resampling the inferences within each σ;
+  holds when the CI lies above 0; needs at least two temperatures.
+- ``missions_needed``: per baseline, missions for a paired 10% difference at 80% power and
+  α = 0.05 (two-sided), from the measured spread of the per-mission differences:
+  n = ((z_0.975 + z_0.8) · sd(d) / (0.1 · mean(baseline)))².
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from interllm.core.seeding import bootstrap_seed
+from interllm.metrics.stats import MIN_CI_SAMPLES, bootstrap_mean_ci
+
+PAPER_IMPROVEMENT = 30.0  # [%] the paper's headline
+Z_ALPHA, Z_POWER = 1.959964, 0.841621  # two-sided 5% level, 80% power
+
+
+def _num(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def ordering(metrics: Mapping) -> dict:
+    """{verdict, improvements {baseline: (pct, lo, hi)}}."""
+    imp = {k.split("_vs_", 1)[1]: (_num(v.get("pct")), _num(v.get("ci_lo")), _num(v.get("ci_hi")))
+           for k, v in metrics.get("improvement", {}).items()}
+    if imp and all(lo > 0 for _, lo, _ in imp.values()):
+        verdict = "holds"
+    elif any(hi < 0 for _, _, hi in imp.values()):
+        verdict = "does not hold"
+    else:
+        verdict = "cannot tell"
+    return {"verdict": verdict, "improvements": imp}
+
+
+def improvement_30(metrics: Mapping) -> dict[str, dict]:
+    """Per baseline: {pct, lo, hi, verdict} against the paper's 30%."""
+    out = {}
+    for base, (pct, lo, hi) in ordering(metrics)["improvements"].items():
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            verdict = "cannot tell"
+        elif lo <= PAPER_IMPROVEMENT <= hi:
+            verdict = "holds"
+        else:
+            verdict = "does not hold" if hi < PAPER_IMPROVEMENT else "exceeds"
+        out[base] = {"pct": pct, "lo": lo, "hi": hi, "verdict": verdict}
+    return out
+
+
+def _per_object(per_command: Iterable[Mapping]) -> dict[tuple, dict[int, float]]:
+    """{(planner, scene, mission): {command index: m_overall per object}}."""
+    out: dict[tuple, dict[int, float]] = {}
+    for r in per_command:
+        n = max(1, int(r["n_objects"]))
+        out.setdefault((str(r["planner"]), str(r["scene"]), str(r["mission"])), {})[int(r["command_index"])] = \
+            float(r["m_overall"]) / n
+    return out
+
+
+def self_improvement(per_command: Iterable[Mapping], reference: str = "inter_llm", n_boot: int = 2000,
+                     ci: float = 0.95, seed: int = 0) -> dict[str, dict]:
+    """Per baseline: {did, lo, hi, n, verdict}: the difference in differences (module doc) [m_overall per object]."""
+    po = _per_object(per_command)
+    out = {}
+    for base in sorted({k[0] for k in po} - {reference}):
+        d = []
+        for (p, s, m), cmds in sorted(po.items()):
+            if p != reference or (base, s, m) not in po or len(cmds) < 2:
+                continue
+            other = po[(base, s, m)]
+            first, last = min(cmds), max(cmds)
+            if first in other and last in other:
+                d.append((cmds[last] - other[last]) - (cmds[first] - other[first]))
+        mean, lo, hi = bootstrap_mean_ci(d, n_boot, ci, bootstrap_seed(seed, f"self_improvement:{reference}:{base}"))
+        verdict = "cannot tell" if not (math.isfinite(lo) and math.isfinite(hi)) else \
+            "holds" if hi < 0 else "does not hold" if lo > 0 else "cannot tell"
+        out[base] = {"did": mean, "lo": lo, "hi": hi, "n": len(d), "verdict": verdict}
+    return out
+
+
+def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot: int = 2000, ci: float = 0.95,
+               seed: int = 0) -> dict:
+    """{slope [accuracy per unit σ], lo, hi, n_sigma, verdict} of accuracy-when-answered on σ."""
+    by: dict[float, list[int]] = {}
+    for r in inferences:
+        if str(r.get("planner")) != planner or not int(r.get("matched", 0)) or r.get("predicted") == "unknown":
+            continue
+        t = _num(r.get("temperature"))
+        if math.isfinite(t):
+            by.setdefault(t, []).append(int(r["correct"]))
+    sig = sorted(by)
+    if len(sig) < 2 or any(len(by[s]) < MIN_CI_SAMPLES for s in sig):
+        return {"slope": float("nan"), "lo": float("nan"), "hi": float("nan"), "n_sigma": len(sig),
+                "verdict": "cannot tell"}
+    x = np.array(sig)
+
+    def slope(acc: np.ndarray) -> float:
+        return float(np.polyfit(x, acc, 1)[0])
+
+    point = slope(np.array([np.mean(by[s]) for s in sig]))
+    rng = np.random.default_rng(bootstrap_seed(seed, f"sigma_rise:{planner}"))
+    boots = []
+    for _ in range(int(n_boot)):
+        boots.append(slope(np.array([np.mean(rng.choice(by[s], size=len(by[s]))) for s in sig])))
+    lo, hi = np.quantile(boots, [(1 - ci) / 2, 1 - (1 - ci) / 2])
+    verdict = "holds" if lo > 0 else "does not hold" if hi < 0 else "cannot tell"
+    return {"slope": point, "lo": float(lo), "hi": float(hi), "n_sigma": len(sig), "verdict": verdict}
+
+
+def missions_needed(per_mission: Iterable[Mapping], reference: str = "inter_llm", effect: float = 0.10) -> dict:
+    """Per baseline: {n_needed, sd_diff, base_mean, n_pairs} for a paired ``effect`` (share of the
+    baseline's mean m_overall) at 80% power, α = 0.05 two-sided."""
+    by: dict[str, dict[tuple, float]] = {}
+    for r in per_mission:
+        by.setdefault(str(r["planner"]), {})[(str(r["scene"]), str(r["mission"]))] = float(r["m_overall"])
+    out = {}
+    for base in sorted(set(by) - {reference}):
+        keys = sorted(set(by.get(reference, {})) & set(by[base]))
+        if len(keys) < MIN_CI_SAMPLES:
+            continue
+        d = np.array([by[base][k] - by[reference][k] for k in keys])
+        base_mean = float(np.mean([by[base][k] for k in keys]))
+        sd = float(np.std(d, ddof=1))
+        n = math.ceil(((Z_ALPHA + Z_POWER) * sd / (effect * base_mean)) ** 2) if base_mean > 0 else float("nan")
+        out[base] = {"n_needed": n, "sd_diff": sd, "base_mean": base_mean, "n_pairs": len(keys)}
+    return out
