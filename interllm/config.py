@@ -105,7 +105,10 @@ class LLMConfig:
     host: str = "http://127.0.0.1:11434"  # Ollama server (llm.backend=ollama)
     base_url: str = "http://127.0.0.1:8080/v1"  # OpenAI-compatible server (llm.backend=openai)
     api_key_env: str = "OPENAI_API_KEY"  # name of the environment variable holding the key (never the key)
-    temperature: float = 0.8
+    temperature: float = 0.8  # the paper's σ: cost-label inference (and plan sampling unless plan_temperature is set)
+    # plan sampling (candidates, re-proposals, replans); null: llm.temperature, as the paper couples them.
+    # The σ ablation fixes it, so that σ varies the cost inference only
+    plan_temperature: Optional[float] = None
     top_p: float = 0.95
     max_tokens: int = 384
     seed: int = 0
@@ -126,9 +129,16 @@ class LLMConfig:
     calibrate: bool = True  # score calibration against a content-free prompt
     max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail
 
+    @property
+    def plan_sampling_temperature(self) -> float:
+        """The temperature plans are sampled at: ``plan_temperature``, or ``temperature`` when null."""
+        return self.temperature if self.plan_temperature is None else float(self.plan_temperature)
+
     def validate(self) -> None:
         _check(0.0 <= self.temperature <= 2.0, "llm.temperature",
                f"must be in [0, 2], got {self.temperature}")
+        _check(self.plan_temperature is None or 0.0 <= self.plan_temperature <= 2.0, "llm.plan_temperature",
+               f"must be null or in [0, 2], got {self.plan_temperature}")
         _check(0.0 < self.top_p <= 1.0, "llm.top_p", f"must be in (0, 1], got {self.top_p}")
         _check(self.max_tokens >= 1, "llm.max_tokens", "must be >= 1")
         _check(self.n_threads >= 1, "llm.n_threads", "must be >= 1")

@@ -124,4 +124,26 @@ def test_planning_seed_is_stable():
     assert planning_seed(0, "candidates", "m000", "breakfast") == planning_seed(0, "candidates", "m000",
                                                                                  "breakfast")
     assert planning_seed(0, "a") != planning_seed(1, "a")
-    assert planning_seed(0, "candidates") == 82746167  # sha256-based, not salted per process
+    # SHA-256 of b'["planning",0,"candidates"]', 4 bytes big-endian, top bit cleared: not salted per process
+    assert planning_seed(0, "candidates") == 671786711
+
+
+def test_plans_and_cost_labels_take_their_temperatures_separately(monkeypatch):
+    import dataclasses
+
+    from interllm.config import LLMConfig
+    from interllm.planning import generation, proposers, scoring
+
+    cfg = dataclasses.replace(LLMConfig(), temperature=0.2, plan_temperature=0.9)
+    assert cfg.plan_sampling_temperature == 0.9
+    assert dataclasses.replace(cfg, plan_temperature=None).plan_sampling_temperature == 0.2  # coupled
+    assert generation._options(cfg).temperature == 0.9  # a plan request
+    assert generation._options(cfg, plan=False).temperature == 0.2  # a cost-inference request: sigma
+    seen = []
+    monkeypatch.setattr(scoring, "propose_by_scores", lambda *a, **k: seen.append(a[5]) or [])
+    p = proposers.PLAN_PROPOSERS.get("score")(client=None, cfg=cfg)
+    monkeypatch.setattr(p, "scores", lambda *a, **k: None)
+    p.propose(None, None, None, 3, 3, known=None, exclude=proposers.Exclusions(), seed=0, context=())
+    p.replan(None, None, None, 3, executed=(), failure="", exclude=proposers.Exclusions(), attempt=0, seed=0,
+             context=())
+    assert seen == [0.9, 0.9]

@@ -36,8 +36,11 @@ COST_SCHEMA = {"type": "object", "properties": {"cost": {"type": "string", "enum
                "required": ["cost"], "additionalProperties": False}
 
 
-def _options(cfg: LLMConfig, sample_index: int = 0) -> LLMOptions:
-    return LLMOptions(temperature=cfg.temperature, seed=cfg.seed, top_p=cfg.top_p, max_tokens=cfg.max_tokens,
+def _options(cfg: LLMConfig, sample_index: int = 0, plan: bool = True) -> LLMOptions:
+    """Options of a plan request (at ``cfg.plan_sampling_temperature``) or, with ``plan=False``, of a
+    cost-inference request (at the paper's σ, ``cfg.temperature``)."""
+    t = cfg.plan_sampling_temperature if plan else cfg.temperature
+    return LLMOptions(temperature=t, seed=cfg.seed, top_p=cfg.top_p, max_tokens=cfg.max_tokens,
                       sample_index=sample_index)
 
 
@@ -113,7 +116,7 @@ def infer_cost_by_generation(client, action: Action, scene: SceneGraph, known: K
     where = action_placement(action, scene) if cfg.placement_attributes else None
     text = tpl.render(known=known_text, action=describe_manipulation(action, scene, where))
     resp = _complete(client, LLMRequest(purpose="cost_inference", messages=(Message("user", text),),
-                                        schema=COST_SCHEMA, options=_options(cfg), template=tpl.name,
+                                        schema=COST_SCHEMA, options=_options(cfg, plan=False), template=tpl.name,
                                         context=context))
     parsed = _parsed(resp)
     label = parsed.get("cost") if isinstance(parsed, dict) else None

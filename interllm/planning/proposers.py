@@ -108,7 +108,8 @@ class ScorePlans:
 
     def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
         return scoring.propose_by_scores(self.scores(scene, command, known, context), scene, state, n_objects,
-                                         n_plans, self.cfg.temperature, seed, exclude.objects, exclude.targets)
+                                         n_plans, self.cfg.plan_sampling_temperature, seed, exclude.objects,
+                                         exclude.targets)
 
     def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
                context):
@@ -117,7 +118,8 @@ class ScorePlans:
 
     def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
         plans = scoring.propose_by_scores(self.scores(scene, command, None, context), scene, state, n_objects, 1,
-                                          self.cfg.temperature, seed, exclude.objects, exclude.targets)
+                                          self.cfg.plan_sampling_temperature, seed, exclude.objects,
+                                          exclude.targets)
         return plans[0] if plans else ()
 
 
