@@ -38,17 +38,23 @@ BINS: dict[str, list[tuple[str, float, float]]] = {
 }
 
 
-def load_scenes(scenes_dir: str | Path, scene_ids: Iterable[str]) -> dict[str, SceneGraph]:
-    """{scene id: the scene graph of ``scenes_dir/<id>/scene.json``} (as the missions started)."""
-    return {sid: SceneGraph.from_json((Path(scenes_dir) / sid / "scene.json").read_text(encoding="utf-8"))
-            for sid in sorted(set(scene_ids))}
+def load_scenes(scenes_dir: str | Path, scene_ids: Iterable[str]) -> dict[str, Optional[SceneGraph]]:
+    """{scene id: the scene graph of ``scenes_dir/<id>/scene.json`` as the missions started, or None
+    when the file holds only what sr_obj needs (objects and categories, no full graph)}."""
+    out: dict[str, Optional[SceneGraph]] = {}
+    for sid in sorted(set(scene_ids)):
+        try:
+            out[sid] = SceneGraph.from_json((Path(scenes_dir) / sid / "scene.json").read_text(encoding="utf-8"))
+        except (KeyError, TypeError, ValueError):
+            out[sid] = None
+    return out
 
 
-def manipulation_rows(records: Iterable[MissionRecord], scenes: Mapping[str, SceneGraph]) -> list[dict]:
+def manipulation_rows(records: Iterable[MissionRecord], scenes: Mapping[str, Optional[SceneGraph]]) -> list[dict]:
     """One row (``FIELDS``) per executed manipulation of every mission record, in mission order."""
     out = []
     for rec in records:
-        scene = scenes[rec.scene_id]
+        scene = scenes.get(rec.scene_id)
         moved: set[str] = set()
         for ci, cmd in enumerate(rec.commands):
             for res in cmd.actions:
@@ -61,7 +67,9 @@ def manipulation_rows(records: Iterable[MissionRecord], scenes: Mapping[str, Sce
                     "sr_man": res.success_rate, "t_man": res.time, "c_man": res.cost,
                     "cost_class": encode_cost(res.cost), "label": "", "height": "", "depth": "",
                     "clearance": "", "size": ""}
-                if a.kind == "pickup" and a.obj not in moved and a.obj in scene.objects:
+                if scene is None:
+                    pass
+                elif a.kind == "pickup" and a.obj not in moved and a.obj in scene.objects:
                     p = placement_of(scene, a.obj)
                     row.update(label=scene.objects[a.obj].placement or "front", height=p.height, depth=p.depth,
                                clearance="" if p.clearance is None else p.clearance, size=p.size)

@@ -276,8 +276,8 @@ def _claims_section(doc: _Doc, metrics: Mapping, metrics_dir: Path,
         rows.append([f"{ref} self-improves along the mission (vs {plots.label(b)}: gap of the last command minus "
                      f"the first, m_overall per object)", f"{_f(v['did'])} [{_f(v['lo'])}, {_f(v['hi'])}] "
                      f"({v['n']} missions)", v["verdict"]])
-    inf = []
-    for d in [metrics_dir, *temperature_dirs]:
+    inf = []  # the sigma sweep's runs when there is one (same missions per sigma), else this run
+    for d in [Path(x) for x in temperature_dirs if (Path(x) / "semantic_inferences.csv").is_file()] or [metrics_dir]:
         p = Path(d) / "semantic_inferences.csv"
         inf += read_csv(p) if p.is_file() else []
     s = claims.sigma_rise(inf, reference)
