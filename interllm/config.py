@@ -21,7 +21,7 @@ from typing import Optional
 from interllm.errors import UserError
 
 CACHE_MODES = ("readwrite", "replay", "off")
-NAV_ESTIMATES = ("paper_sum", "weighted_mean")
+NAV_ESTIMATES = ("paper_sum", "weighted_mean", "prior")  # interllm/planning/costs.py
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
 SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/generator.py, interllm/scene/floor_plans.py)
 POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: the earlier protocol, the paper's (interllm/sim/base_poses.py)

@@ -159,3 +159,18 @@ def test_the_ordering_is_judged_by_the_paired_intervals_not_the_mean_rank(lo, hi
     metrics = {"planners": {"inter_llm": {"m_overall": 100.0}, "sayplan": {"m_overall": 101.0}},
                "improvement": {"inter_llm_vs_sayplan": {"pct": 1.0, "ci_lo": lo, "ci_hi": hi}}}
     assert verdict in ordering_sentence(metrics)  # Inter-LLM has the lowest mean in every case
+
+
+def test_estimate_variants_are_paired_against_this_run(experiment):
+    from interllm.metrics.report import build_report
+
+    root, cfg = experiment
+    mdir = root / "m1"
+    aggregate(root / "runs", root / "scenes", cfg, mdir)
+    out = build_report(mdir, root / "scenes", root / "runs", root / "rep_est", cfg,
+                       estimate_results=[("prior", mdir), ("weighted_mean", root / "missing")])
+    md = out["markdown"].read_text(encoding="utf-8")
+    assert "## Cost-estimate variants (planner.nav_estimate)" in md
+    row = next(line for line in md.splitlines() if line.startswith("| prior |"))
+    assert "0.0% [0.0, 0.0]" in row  # the same runs: no difference, and an interval of width 0
+    assert "weighted_mean" not in md.split("## Cost-estimate variants")[1].split("##")[0]

@@ -106,3 +106,22 @@ def test_weighted_mean_falls_back_when_nothing_overlaps():
 def test_unknown_mode_raises():
     with pytest.raises(ValueError, match="nav_estimate"):
         estimate_navigation(straight(), KnownCosts(), 1.0, "median")
+
+
+def test_the_prior_estimate_has_no_novelty_bias():
+    """ĉ = L (r_0 + Σ w_i r_i) / (1 + Σ w_i), r_0 = 1/0.5 + 1 = 3 per metre, w = P°/200."""
+    from interllm.planning.costs import unknown_manipulation_estimate
+
+    collided, clean = KnownCosts(), KnownCosts()
+    collided.add_navigation(NAV, S0, straight(length=4.0), 40.0)  # 10 per metre: it hit something
+    clean.add_navigation(NAV, S0, straight(length=4.0), 12.0)  # 3 per metre: what its length says
+    same, new = straight(length=4.0), straight(length=4.0, y=5.0)  # P° = 200 and 0
+    assert estimate_navigation(same, collided, 1.0, "prior")[0] == pytest.approx(4.0 * (3 + 10) / 2)  # 26
+    assert estimate_navigation(same, clean, 1.0, "prior")[0] == pytest.approx(12.0)
+    assert estimate_navigation(new, collided, 1.0, "prior")[0] == pytest.approx(12.0)  # its own length
+    assert estimate_navigation(new, collided, 1.0, "paper_sum")[0] == 0.0  # the paper's form: new is free
+    k = KnownCosts()
+    assert unknown_manipulation_estimate("pickup", k) == 10.0  # nothing known: the middle class
+    k.add_manipulation(PICK, S0, 80.0)
+    k.add_manipulation(Action("place", "desk_1", obj="mug_1"), S0, 4.0)
+    assert unknown_manipulation_estimate("pickup", k) == 80.0 and unknown_manipulation_estimate("place", k) == 4.0

@@ -19,10 +19,12 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Optional
 
+from interllm.core.seeding import bootstrap_seed
 from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, read_json
 from interllm.metrics import claims, plots
 from interllm.metrics.compute import read_csv
+from interllm.metrics.stats import paired_improvement
 from interllm.planners import PLANNERS
 from interllm.record.figures import mission_trajectories_figure
 
@@ -294,6 +296,32 @@ def _claims_section(doc: _Doc, metrics: Mapping, metrics_dir: Path,
                   f"{v['n_pairs']} pairs here)" for b, v in sorted(need.items())) + ".")
 
 
+def _estimates_section(doc: _Doc, metrics_dir: Path, variants: Sequence[tuple[str, Path]], reference: str) -> None:
+    """Each cost-estimate variant's m_overall beside this run's (``planner.nav_estimate`` of this run),
+    paired over the missions both ran."""
+    got = [(lab, d) for lab, d in variants if (d / "per_mission.csv").is_file()]
+    if not got:
+        return
+    base = [r for r in read_csv(metrics_dir / "per_mission.csv") if r["planner"] == reference]
+    doc.h(2, "Cost-estimate variants (planner.nav_estimate)")
+    doc.p(f"{plots.label(reference)} with each variant on the same missions as this run (paper_sum, the paper's "
+          f"equation); improvement = paired reduction of m_overall against paper_sum, 95% bootstrap CI.")
+    rows = []
+    for lab, d in got:
+        var = [r for r in read_csv(d / "per_mission.csv") if r["planner"] == reference]
+        pairs = {(r["scene"], r["mission"]): float(r["m_overall"]) for r in var}
+        keys = sorted(k for k in ((r["scene"], r["mission"]) for r in base) if k in pairs)
+        ref_of = {(r["scene"], r["mission"]): float(r["m_overall"]) for r in base}
+        pct, lo, hi = paired_improvement([pairs[k] for k in keys], [ref_of[k] for k in keys],
+                                         seed=bootstrap_seed(0, f"estimate:{lab}"))
+        m = read_json(d / "metrics.json")["planners"].get(reference, {})
+        rows.append([lab, str(len(keys)), f"{_f(m.get('m_overall'))} [{_f(m.get('m_overall_ci_lo'))}, "
+                     f"{_f(m.get('m_overall_ci_hi'))}]", f"{m.get('n_fulfilled')}/{m.get('n_objects')}",
+                     _f(m.get("cc"), 2), f"{_f(pct)}% [{_f(lo)}, {_f(hi)}]"])
+    doc.table(["variant", "pairs", "m_overall / mission [CI]", "delivered", "cc / mission",
+               "improvement over paper_sum [CI]"], rows)
+
+
 def _manipulation_section(doc: _Doc, summary: Mapping, attributes_csv: Path) -> None:
     """The measured manipulation costs: graded share, classes, sr_man per class, c_man per attribute."""
     if not summary:
@@ -331,7 +359,8 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
                  out_dir: str | os.PathLike, cfg: Any = None,
                  temperature_results: Sequence[tuple[str, str | os.PathLike]] = (),
                  m_results: Sequence[tuple[str, str | os.PathLike]] = (),
-                 reference: str = "inter_llm") -> dict[str, Path]:
+                 reference: str = "inter_llm",
+                 estimate_results: Sequence[tuple[str, str | os.PathLike]] = ()) -> dict[str, Path]:
     """Write ``out_dir/report.md``, ``out_dir/report.html`` and ``out_dir/figures/*.png``.
 
     metrics_dir: output of ``aggregate``; scenes_dir: ``data/scenes`` (topdown.png pictures);
@@ -521,6 +550,8 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
                          _f(d.get("llm_tokens_in_per_mission"), 0), _f(d.get("llm_tokens_out_per_mission"), 0)])
         doc.table(["M", f"{plots.label(reference)} m_overall / mission [CI]", "LLM calls / mission",
                    "tokens in / mission", "tokens out / mission"], rows)
+
+    _estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], reference)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     md, ht = out_dir / "report.md", out_dir / "report.html"

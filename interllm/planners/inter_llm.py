@@ -32,6 +32,7 @@ from interllm.planning.costs import (
     encode_cost,
     estimate_navigation,
     plan_total,
+    unknown_manipulation_estimate,
 )
 from interllm.scene.graph import Command
 
@@ -83,7 +84,11 @@ class InterLLMPlanner:
                                                           context=ctx.labels(command))
                     result.cost_inferences.append(CostInference(str(a), labels[lk], decode_cost(labels[lk])))
                 lab = labels[lk]
-                man.append(CostEstimate(str(a), a.kind, decode_cost(lab), "llm", lab, lab != "unknown"))
+                if lab == "unknown" and cfg.nav_estimate == "prior":  # no novelty bias for manipulation either
+                    man.append(CostEstimate(str(a), a.kind, unknown_manipulation_estimate(a.kind, mem), "prior",
+                                            lab, True))
+                else:
+                    man.append(CostEstimate(str(a), a.kind, decode_cost(lab), "llm", lab, lab != "unknown"))
             if prev is None:
                 prev = state.at_furniture
             state = apply_effects(a, state, world.scene.furniture_rooms)

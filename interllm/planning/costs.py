@@ -8,7 +8,13 @@
       grows with the history and is 0 for a path that overlaps no known path.
     * ``weighted_mean``: ĉ = Σ_i c_i·P° / Σ_i P°, a similarity-weighted mean of the known costs
       (same units as c_nav). When Σ P° = 0 (no known path overlaps) it falls back as below.
-  With no known navigation at all (the first command) both modes fall back to the presumed
+    * ``prior`` (ours; no novelty bias): ĉ = L · (r_0 + Σ_i w_i r_i) / (1 + Σ_i w_i), with L the
+      presumed path's length [m], r_i = c_i / L_i the known cost per metre, w_i = P°/200 ∈ [0, 1],
+      and r_0 = 1/base_speed + 1 the presumed path's own cost per metre (no collision) as a prior of
+      weight 1: a new path costs what its length says, a path like one that collided costs more.
+      With it, ``unknown_manipulation_estimate`` gives an "unknown" manipulation the mean measured
+      cost of the known manipulations of its kind instead of leaving it out.
+  With no known navigation at all (the first command) every mode falls back to the presumed
   path's own cost c_nav with cc = 0: t = length/base_speed [s], d = length [m] (turn time ignored).
 - ``plan_total``: ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid/N_man, N_valid = number of manipulation
   estimates that are not ``unknown``; 0/0 is defined as 0 (a plan without manipulations).
@@ -27,7 +33,8 @@ from interllm.planning.similarity import path_overlap
 
 COST_LABELS = ("easy", "medium", "hard", "unknown")
 DECODE = {"hard": 20.0, "medium": 10.0, "easy": 5.0, "unknown": 0.0}
-NAV_MODES = ("paper_sum", "weighted_mean")
+NAV_MODES = ("paper_sum", "weighted_mean", "prior")
+MIN_RATE_LENGTH = 0.5  # [m] known paths shorter than this count as this long for a cost per metre
 # Estimate of a navigation whose presumed path does not exist on the belief map.
 UNREACHABLE_COST = 1.0e6
 
@@ -102,10 +109,24 @@ def estimate_navigation(presumed_path, known: KnownCosts, eps: float, mode: str 
     costs = np.array([r.cost for r in recs])
     if mode == "paper_sum":
         return float(np.sum(costs * overlaps)), "similarity"
+    if mode == "prior":
+        w = overlaps / 200.0
+        rates = np.array([r.cost / max(path_length(r.path), MIN_RATE_LENGTH) for r in recs])
+        r0 = 1.0 / base_speed + 1.0
+        return float(length * (r0 + np.sum(w * rates)) / (1.0 + np.sum(w))), "similarity"
     s = float(overlaps.sum())
     if s <= 0:
         return fallback, "fallback_presumed"
     return float(np.sum(costs * overlaps) / s), "similarity"
+
+
+def unknown_manipulation_estimate(kind: str, known: KnownCosts) -> float:
+    """``prior`` mode: the estimate of a manipulation the LLM answered "unknown" for: the mean measured
+    c_man of the known manipulations of the same kind (pickup / place), else of all known ones, else
+    the middle class's decoded value (medium, 10)."""
+    same = [r.cost for r in known.maned if r.action.kind == kind]
+    pool = same or [r.cost for r in known.maned]
+    return float(np.mean(pool)) if pool else DECODE["medium"]
 
 
 def plan_total(nav_estimates: Sequence[float], man_estimates: Sequence[float],

@@ -14,10 +14,26 @@ from interllm.metrics.report import build_report
 
 def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_dir: Path,
                out_dir: Path, temperature_results: Iterable[tuple[str, Path]] = (),
-               m_results: Iterable[tuple[str, Path]] = ()) -> None:
-    """The report; ablation results are (label, metrics_dir) pairs (``find_sweep_results``)."""
+               m_results: Iterable[tuple[str, Path]] = (),
+               estimate_results: Iterable[tuple[str, Path]] = ()) -> None:
+    """The report; ablation results are (label, metrics_dir) pairs (``find_sweep_results``,
+    ``find_estimate_results``)."""
     build_report(Path(metrics_dir), Path(scenes_dir), Path(runs_dir), Path(out_dir), cfg,
-                 temperature_results=list(temperature_results), m_results=list(m_results))
+                 temperature_results=list(temperature_results), m_results=list(m_results),
+                 estimate_results=list(estimate_results))
+
+
+def find_estimate_results(*roots: Path) -> list[tuple[str, Path]]:
+    """Jobs of ``experiment=estimate_comparison`` multiruns under ``roots`` with metrics:
+    [(planner.nav_estimate, metrics_dir)], sorted by the variant's name."""
+    out = []
+    for root in roots:
+        for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
+            metrics = cfg_file.parent.parent / "data" / "metrics"
+            c = yaml.safe_load(cfg_file.read_text()) or {}
+            if c.get("experiment") == "estimate_comparison" and (metrics / "metrics.json").is_file():
+                out.append((str(c["planner"]["nav_estimate"]), metrics))
+    return sorted(out)
 
 
 def find_sweep_results(*roots: Path) -> tuple[list[tuple[str, Path]], list[tuple[str, Path]]]:
