@@ -57,6 +57,7 @@ def _scene_validate(args) -> int:
 
 
 def _scene_import(args) -> int:
+    from interllm.config import SceneConfig, SimConfig  # lazy: a command loads only its own code
     from interllm.io import atomic_write_text  # lazy: a command loads only its own code
     from interllm.scene.grid import rasterize  # lazy: a command loads only its own code
     from interllm.scene.importer import (  # lazy: a command loads only its own code
@@ -80,7 +81,8 @@ def _scene_import(args) -> int:
     atomic_write_text(out / "scene.json", scene.to_json())
     lines = report.lines() or ["nothing defaulted, dropped or moved"]
     atomic_write_text(out / "import_report.txt", "\n".join(lines) + "\n")
-    render_topdown(scene, out / "topdown.png", grid=rasterize(scene, 0.05, 0.25, doors="presumed"))
+    sim, res = SimConfig(), SceneConfig().grid_resolution  # the picture the scenes stage draws by default
+    render_topdown(scene, out / "topdown.png", grid=rasterize(scene, res, sim.robot_radius, doors="presumed"))
     print("\n".join(["import report:"] + [f"  {ln}" for ln in lines]))
     print(f"wrote {out / 'scene.json'}, {out / 'import_report.txt'} and {out / 'topdown.png'}; use it with "
           f"scene.import_path={out / 'scene.json'}")

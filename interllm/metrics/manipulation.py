@@ -67,13 +67,11 @@ def manipulation_rows(records: Iterable[MissionRecord], scenes: Mapping[str, Opt
                     "sr_man": res.success_rate, "t_man": res.time, "c_man": res.cost,
                     "cost_class": encode_cost(res.cost), "label": "", "height": "", "depth": "",
                     "clearance": "", "size": ""}
-                if scene is None:
-                    pass
-                elif a.kind == "pickup" and a.obj not in moved and a.obj in scene.objects:
+                if scene is not None and a.kind == "pickup" and a.obj not in moved and a.obj in scene.objects:
                     p = placement_of(scene, a.obj)
                     row.update(label=scene.objects[a.obj].placement or "front", height=p.height, depth=p.depth,
                                clearance="" if p.clearance is None else p.clearance, size=p.size)
-                elif a.kind == "place" and a.furniture in scene.furniture:
+                elif scene is not None and a.kind == "place" and a.furniture in scene.furniture:
                     row["height"] = round(scene.furniture[a.furniture].surface_height, 2)
                 if a.kind == "place" and res.success:
                     moved.add(a.obj)

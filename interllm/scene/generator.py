@@ -114,32 +114,8 @@ def _floor_plan(b: _Build) -> list[tuple[str, str, str]]:
     edges = [((r, c), (r, c + 1)) for (r, c) in cells if (r, c + 1) in cellset]
     edges += [((r, c), (r + 1, c)) for (r, c) in cells if (r + 1, c) in cellset]
     perm = rng.permutation(len(edges))
-    parent = {rc: rc for rc in cells}
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
-    tree, rest = [], []
-    for k in perm:
-        a, bb = edges[int(k)]
-        ra, rb = find(a), find(bb)
-        if ra != rb:
-            parent[ra] = rb
-            tree.append(edges[int(k)])
-        else:
-            rest.append(edges[int(k)])
-    n_extra = max(1, int(round(EXTRA_DOOR_FRACTION * len(rest)))) if rest else 0
-    extra = rest[:n_extra]
-    kinds = ["normal"] * len(tree)
-    for _ in extra:
-        u = rng.random()
-        kinds.append("partly_closed" if u < cfg.partly_closed_door_prob
-                     else "narrow" if u < cfg.partly_closed_door_prob + cfg.narrow_door_prob else "normal")
-    if extra and cfg.partly_closed_door_prob > 0 and "partly_closed" not in kinds:
-        kinds[len(tree)] = "partly_closed"
+    tree, rest, _ = _spanning_tree(cells, [edges[int(k)] for k in perm], lambda e: e)
+    extra, kinds = _door_kinds(b, len(tree), rest)
 
     openings: dict[tuple, list[tuple[float, float]]] = {}  # wall line key -> [(centre, width)]
     out = []
@@ -155,11 +131,7 @@ def _floor_plan(b: _Build) -> list[tuple[str, str, str]]:
             raise _Retry(f"wall too short for a {width} m door")
         pos = r4(rng.uniform(*span))
         center = (X[c + 1], pos) if axis == "y" else (pos, Y[r + 1])
-        open_fraction = 1.0
-        if kind == "partly_closed":
-            hi_open = min(0.35, (2 * b.robot_radius - 0.1) / width)
-            open_fraction = r4(rng.uniform(0.15, max(0.15, hi_open)))
-        hinge = "low" if rng.random() < 0.5 else "high"
+        open_fraction, hinge = _leaf(b, kind, width)
         did = b.new_id("door")
         b.doors[did] = Door(did, (room_of[a], room_of[bb]), (r4(center[0]), r4(center[1])), axis,
                             r4(width), open_fraction, hinge)
@@ -188,6 +160,55 @@ def _floor_plan(b: _Build) -> list[tuple[str, str, str]]:
     return out
 
 
+def _spanning_tree(nodes, edges: list, ends) -> tuple[list, list, int]:
+    """Kruskal over ``edges`` in the given order: (tree edges, the other edges, connected parts);
+    ``ends(edge)`` gives the two nodes an edge joins."""
+    parent = {n: n for n in nodes}
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    tree, rest = [], []
+    for e in edges:
+        u, v = ends(e)
+        ru, rv = find(u), find(v)
+        if ru != rv:
+            parent[ru] = rv
+            tree.append(e)
+        else:
+            rest.append(e)
+    return tree, rest, len({find(n) for n in parent})
+
+
+def _door_kinds(b: _Build, n_tree: int, rest: list) -> tuple[list, list[str]]:
+    """(the extra loop doors, the kind of every door: tree doors first, always normal). Extra doors
+    may be narrow or partly closed; with partly_closed_door_prob > 0 at least one is partly closed."""
+    cfg = b.cfg
+    n_extra = max(1, int(round(EXTRA_DOOR_FRACTION * len(rest)))) if rest else 0
+    extra = rest[:n_extra]
+    kinds = ["normal"] * n_tree
+    for _ in extra:
+        u = b.rng.random()
+        kinds.append("partly_closed" if u < cfg.partly_closed_door_prob
+                     else "narrow" if u < cfg.partly_closed_door_prob + cfg.narrow_door_prob else "normal")
+    if extra and cfg.partly_closed_door_prob > 0 and "partly_closed" not in kinds:
+        kinds[n_tree] = "partly_closed"
+    return extra, kinds
+
+
+def _leaf(b: _Build, kind: str, width: float) -> tuple[float, str]:
+    """(open fraction, hinge end) of a door of ``kind``: a partly closed leaf leaves a gap narrower than
+    the robot (0.15-0.35 of the width)."""
+    open_fraction = 1.0
+    if kind == "partly_closed":
+        hi_open = min(0.35, (2 * b.robot_radius - 0.1) / width)
+        open_fraction = r4(b.rng.uniform(0.15, max(0.15, hi_open)))
+    return open_fraction, "low" if b.rng.random() < 0.5 else "high"
+
+
 def _hallway_plan(b: _Build) -> list[tuple[str, str, str]]:
     """Rooms along hallways (``interllm.scene.floor_plans``), their doors and walls. Doors: a
     spanning tree of the rooms' shared edges that prefers doors onto a hallway (always normal,
@@ -214,43 +235,16 @@ def _hallway_plan(b: _Build) -> list[tuple[str, str, str]]:
     hallways = {i for i, (hall, _) in enumerate(plan) if hall}
     keys = rng.random(len(edges))
     order = sorted(range(len(edges)), key=lambda k: (not ({edges[k].a, edges[k].b} & hallways), keys[k]))
-    parent = list(range(len(rects)))
-
-    def find(a: int) -> int:
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
-    tree, rest = [], []
-    for k in order:
-        ra, rb = find(edges[k].a), find(edges[k].b)
-        if ra != rb:
-            parent[ra] = rb
-            tree.append(edges[k])
-        else:
-            rest.append(edges[k])
-    if len({find(i) for i in range(len(rects))}) > 1:
+    tree, rest, n_parts = _spanning_tree(range(len(rects)), [edges[k] for k in order], lambda e: (e.a, e.b))
+    if n_parts > 1:
         raise _Retry("rooms are not all joined by shared walls long enough for a door")
-    n_extra = max(1, int(round(EXTRA_DOOR_FRACTION * len(rest)))) if rest else 0
-    extra = rest[:n_extra]
-    kinds = ["normal"] * len(tree)
-    for _ in extra:
-        u = rng.random()
-        kinds.append("partly_closed" if u < cfg.partly_closed_door_prob
-                     else "narrow" if u < cfg.partly_closed_door_prob + cfg.narrow_door_prob else "normal")
-    if extra and cfg.partly_closed_door_prob > 0 and "partly_closed" not in kinds:
-        kinds[len(tree)] = "partly_closed"
+    extra, kinds = _door_kinds(b, len(tree), rest)
     openings, out = [], []
     for e, kind in zip(tree + extra, kinds, strict=True):
         width = cfg.narrow_door_width if kind == "narrow" else r4(rng.uniform(cfg.door_width_min, cfg.door_width))
         pos = r4(rng.uniform(e.lo + width / 2 + DOOR_END_MARGIN, e.hi - width / 2 - DOOR_END_MARGIN))
         center = (e.fixed, pos) if e.axis == "y" else (pos, e.fixed)
-        open_fraction = 1.0
-        if kind == "partly_closed":
-            hi_open = min(0.35, (2 * b.robot_radius - 0.1) / width)
-            open_fraction = r4(rng.uniform(0.15, max(0.15, hi_open)))
-        hinge = "low" if rng.random() < 0.5 else "high"
+        open_fraction, hinge = _leaf(b, kind, width)
         did = b.new_id("door")
         b.doors[did] = Door(did, (ids[e.a], ids[e.b]), (r4(center[0]), r4(center[1])), e.axis, r4(width),
                             open_fraction, hinge)
