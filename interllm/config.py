@@ -209,6 +209,10 @@ class SimConfig:
     ik_tol: float = 0.015  # [m] position tolerance of IK convergence
     ik_dt: float = 0.05  # [s] IK integration step
     joint_speed: float = 1.0  # [rad/s] arm joint velocity limit (trial time)
+    # [m] the arm slows down within this distance of an obstacle (speed and separation monitoring),
+    # so clutter, shelves and walls show in the manipulation time; 0: constant joint_speed (earlier protocol)
+    arm_slow_distance: float = 0.15
+    arm_min_speed: float = 0.2  # share of joint_speed the arm keeps at contact distance
     grasp_time: float = 2.0  # [s] closing / opening the gripper
     gamma_nav: float = 10.0  # collision-count normalising factor γ_nav
     gamma_man: float = 100.0  # failure-rate normalising factor γ_man
@@ -230,6 +234,10 @@ class SimConfig:
         _check(0.0 <= self.pose_margin <= 1.0, "sim.pose_margin", f"must be in [0, 1] m, got {self.pose_margin}")
         _check(0 <= self.max_nav_replans <= 50, "sim.max_nav_replans", "must be in [0, 50]")
         _check(self.ik_max_iters >= 1, "sim.ik_max_iters", "must be >= 1")
+        _check(self.joint_speed > 0, "sim.joint_speed", f"must be > 0 rad/s, got {self.joint_speed}")
+        _check(0.0 <= self.arm_slow_distance <= 0.5, "sim.arm_slow_distance",
+               f"must be in [0, 0.5] m (0: constant speed), got {self.arm_slow_distance}")
+        _check(0.0 < self.arm_min_speed <= 1.0, "sim.arm_min_speed", f"must be in (0, 1], got {self.arm_min_speed}")
         _check(self.gamma_nav >= 0 and self.gamma_man >= 0, "sim.gamma_nav",
                "gamma_nav and gamma_man must be >= 0")
 

@@ -162,3 +162,47 @@ def test_an_arm_through_a_wall_is_a_failed_trial():
         outcomes[protocol] = (trial.success, len(ik.structure_geoms))
     assert outcomes["window"] == (True, 0)  # the old model: no walls, the arm passes through
     assert outcomes["reach"][0] is False and outcomes["reach"][1] >= 1
+
+
+def _cup_trial(cfg: SimConfig, neighbour: bool):
+    """One pickup trial of cup_1 on a free-standing table from 0.5 m in front of it, with or
+    without a 0.3 m tall box 3 cm beside the cup."""
+    sg = SceneGraph(id="table", seed=0)
+    sg.rooms["r"] = Room("r", "living_room", ((0, 0), (4, 0), (4, 4), (0, 4)))
+    sg.furniture["table_1"] = Furniture("table_1", "side_table", "r", (2.0, 2.0), (0.6, 0.6, 0.75))
+    sg.objects["cup_1"] = SceneObject("cup_1", "cup", "table_1", (2.0, 1.9, 0.8), (0.08, 0.08, 0.1))
+    if neighbour:  # its near face 3 cm from the cup's side
+        sg.objects["box_1"] = SceneObject("box_1", "box", "table_1", (2.17, 1.9, 0.9), (0.12, 0.12, 0.3))
+    o = sg.objects["cup_1"]
+    half = np.asarray(o.size) / 2
+    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, man.GRASP_MIN_HEIGHT])
+    ik = man.build_local_ik(sg, "table_1", cfg)
+    trial, sol = man._trial(cfg, ik, BasePose(2.0, 1.4, math.pi / 2), np.asarray(o.position, dtype=float), inside,
+                            ik.obstacles(but=("cup_1",)))
+    return trial, sol, ik
+
+
+def test_the_arm_slows_down_near_obstacles_so_clutter_costs_time():
+    constant = SimConfig(arm_slow_distance=0.0)
+    slowing = SimConfig()  # arm_slow_distance 0.15 m, arm_min_speed 0.2
+    # without slowing, the arm time is the joint-space path length over joint_speed, exactly
+    trial, (q_pre, q_grasp), ik = _cup_trial(constant, neighbour=False)
+    assert trial.success
+    length = float(np.linalg.norm(q_pre - man.TUCK) + np.linalg.norm(q_grasp - q_pre))
+    assert trial.time == pytest.approx(length / constant.joint_speed + constant.grasp_time)
+    # the cup alone on the table: nothing but the table near the arm, and the table does not slow it
+    open_trial, _, _ = _cup_trial(slowing, neighbour=False)
+    assert open_trial.time == pytest.approx(trial.time)
+    # at the grasp the fingers are 2 cm above the table top: the table is within arm_slow_distance
+    table = [ik.support_geom]
+    assert man.arm_clearance(ik, q_grasp, table, slowing.arm_slow_distance) == pytest.approx(0.045, abs=0.01)
+    assert man.arm_clearance(ik, man.TUCK, table, 0.1) == 0.1  # tucked: 0.14 m above the table edge
+    # were it an obstacle, the descent would be slower than in free space, but never slower than
+    # at the minimum speed throughout
+    leg = float(np.linalg.norm(q_grasp - q_pre))
+    t_leg = man.arm_motion_time(slowing, ik, q_pre, q_grasp, table)
+    assert leg / slowing.joint_speed < t_leg <= leg / (slowing.joint_speed * slowing.arm_min_speed) + 1e-9
+    # the same cup with a tall box 3 cm beside it: still a success, and slower by more than 0.3 s
+    cluttered, _, _ = _cup_trial(slowing, neighbour=True)
+    assert cluttered.success
+    assert cluttered.time > open_trial.time + 0.3, (open_trial.time, cluttered.time)

@@ -17,9 +17,16 @@ For an action at a furniture:
 3. a trial succeeds when both solves converge (position error <= ``sim.ik_tol`` [m], orientation
    error <= ``ROT_TOL`` [rad]) within ``sim.ik_max_iters`` iterations, the final arm has no
    contact with the furniture or another object, and the target is inside the gripper;
-4. trial time = drive to the pose / base_speed (``reach`` protocol) + joint-space path length
-   (L2 [rad], tuck -> pre-grasp -> grasp) / joint_speed, + grasp_time for a successful trial;
-   for a failed trial the drive and the joint distance it moved;
+4. trial time = drive to the pose / base_speed (``reach`` protocol) + arm motion time along the
+   joint-space path (tuck -> pre-grasp -> grasp, straight lines in joint space) + grasp_time for
+   a successful trial; for a failed trial the drive and the arm motion it made. The arm moves at
+   ``joint_speed`` [rad/s] in the open and slows down near obstacles, as a speed-and-separation
+   controller does: within ``sim.arm_slow_distance`` [m] of a neighbouring object, another
+   furniture, a wall or a door leaf its speed falls linearly with the distance, down to
+   ``sim.arm_min_speed`` of ``joint_speed`` at contact (``mj_geomDistance`` every
+   ``ARM_SAMPLE_STEP`` rad of the path). The surface the arm works on does not slow it: every
+   grasp ends on it. So a cluttered spot or an object by a wall takes longer even when every trial
+   succeeds, and the time says where the difficulty is;
 5. sr = successes / trials, t = mean trial time, c_man = γ_man·(1 − sr) + t; the action
    succeeds when any trial succeeded and is executed from the first successful pose.
 
@@ -36,6 +43,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Optional
 
 import mink
@@ -59,6 +67,7 @@ GRASP_MIN_HEIGHT = 0.02  # [m] grasp point (gripper site) at least this high abo
 INSIDE_MARGIN = 0.02  # [m] the gripper site may be this far outside the object's box
 PLACE_GAP = 0.02  # [m] clearance to other objects when placing
 STALL_ITERS = 25  # stop an IK solve after this many iterations without progress
+ARM_SAMPLE_STEP = 0.1  # [rad] joint-space spacing of the clearance samples along an arm motion
 
 
 @dataclass
@@ -74,6 +83,7 @@ class LocalIK:
     furniture_geoms: list[int]
     object_geoms: dict[str, int]
     structure_geoms: list[int]  # walls and door leaves (reach protocol; else empty)
+    support_geom: int  # the furniture the action is at (the surface the arm works on)
 
     def obstacles(self, but: tuple[str, ...] = ()) -> list[int]:
         """Every geom the arm must not touch: furniture, walls, doors, objects other than ``but``."""
@@ -105,7 +115,8 @@ def build_local_ik(scene: SceneGraph, furniture_id: str, cfg: SimConfig, exclude
         robot_geoms={g for g, n in names.items() if n.startswith("robot/")},
         furniture_geoms=[g for g, n in names.items() if n.startswith("furniture/")],
         object_geoms={n.split("/", 1)[1]: g for g, n in names.items() if n.startswith("object/")},
-        structure_geoms=[g for g, n in names.items() if n.startswith(("wall/", "door/"))])
+        structure_geoms=[g for g, n in names.items() if n.startswith(("wall/", "door/"))],
+        support_geom=model.geom(f"furniture/{furniture_id}").id)
     assert model.nq == len(ARM_JOINTS), "the local IK model must have only the arm joints"
     return ik
 
@@ -206,6 +217,42 @@ def _run_trials(cfg: SimConfig, ik: LocalIK, poses: list[BasePose], target: np.n
     return trials, sols
 
 
+def arm_clearance(ik: LocalIK, q: np.ndarray, obstacles: Sequence[int], within: float) -> float:
+    """[m] the smallest distance between the arm and an obstacle at arm configuration q, capped at
+    ``within``: ``mj_geomDistance`` over the pairs whose bounding spheres come within ``within``
+    (MuJoCo's contact margins miss box-box pairs, so they are not used here)."""
+    conf = ik.configuration
+    conf.update(q)
+    model, data = ik.model, conf.data
+    arm = np.asarray(ik.arm_geoms)
+    obs = np.asarray(obstacles, dtype=int)
+    if obs.size == 0:
+        return within
+    gap = np.linalg.norm(data.geom_xpos[arm][:, None, :] - data.geom_xpos[obs][None, :, :], axis=2) \
+        - model.geom_rbound[arm][:, None] - model.geom_rbound[obs][None, :]
+    best = within
+    for a, o in zip(*np.nonzero(gap < within), strict=True):
+        best = min(best, mujoco.mj_geomDistance(model, data, int(arm[a]), int(obs[o]), within, None))
+    return max(float(best), 0.0)
+
+
+def arm_motion_time(cfg: SimConfig, ik: LocalIK, q_from: np.ndarray, q_to: np.ndarray,
+                    obstacles: Sequence[int]) -> float:
+    """[s] time of the straight joint-space motion q_from -> q_to: ``joint_speed`` [rad/s] in the
+    open, slower within ``sim.arm_slow_distance`` of one of ``obstacles`` (module doc, step 4)."""
+    length = float(np.linalg.norm(q_to - q_from))
+    if cfg.arm_slow_distance <= 0 or length == 0.0:
+        return length / cfg.joint_speed
+    n = max(1, math.ceil(length / ARM_SAMPLE_STEP))
+    t = 0.0
+    for i in range(n):
+        q = q_from + (q_to - q_from) * ((i + 0.5) / n)
+        d = arm_clearance(ik, q, obstacles, cfg.arm_slow_distance)
+        speed = cfg.joint_speed * max(cfg.arm_min_speed, d / cfg.arm_slow_distance)
+        t += (length / n) / speed
+    return t
+
+
 def _trial(cfg: SimConfig, ik: LocalIK, bp: BasePose, target: np.ndarray, inside_box, avoid: list[int]):
     """One trial from base pose ``bp``: drive there, pre-grasp and grasp IK, contact and grip checks.
     Returns (ManipulationTrial, (q_pre, q_grasp) or None); time [s] = drive + arm motion (+ grasp)."""
@@ -216,13 +263,13 @@ def _trial(cfg: SimConfig, ik: LocalIK, bp: BasePose, target: np.ndarray, inside
     ik.model.body_pos[ik.base_body] = (bp.x, bp.y, 0.0)
     ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(bp.yaw)
     rot = _topdown_rotation((bp.x, bp.y), target[:2])
+    near = [g for g in avoid if g != ik.support_geom]  # what slows the arm (module doc, step 4)
     s1 = solve_ik(ik, TUCK, target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT]), rot, cfg, avoid)
-    moved = float(np.linalg.norm(s1.q - TUCK))
+    t_arm = arm_motion_time(cfg, ik, TUCK, s1.q, near)
     if not s1.converged:
-        return ManipulationTrial(pose, False, drive_s + moved / cfg.joint_speed, s1.reason, round(s1.pos_err, 6)), None
+        return ManipulationTrial(pose, False, drive_s + t_arm, s1.reason, round(s1.pos_err, 6)), None
     s2 = solve_ik(ik, s1.q, target, rot, cfg, avoid)
-    moved += float(np.linalg.norm(s2.q - s1.q))
-    t_fail = drive_s + moved / cfg.joint_speed
+    t_fail = drive_s + t_arm + arm_motion_time(cfg, ik, s1.q, s2.q, near)
     if not s2.converged:
         return ManipulationTrial(pose, False, t_fail, s2.reason, round(s2.pos_err, 6)), None
     obstacles = set(avoid)
