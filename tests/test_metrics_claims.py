@@ -44,7 +44,7 @@ def _inferences(acc_by_sigma: dict[float, float], n: int = 30) -> list[dict]:
     rows = []
     for s, acc in acc_by_sigma.items():
         k = round(acc * n)
-        rows += [{"planner": "inter_llm", "temperature": s, "matched": 1, "predicted": "easy",
+        rows += [{"planner": "inter_llm", "temperature": s, "judged": 1, "predicted": "easy",
                   "correct": int(j < k)} for j in range(n)]
     return rows
 

@@ -51,10 +51,11 @@ def summary(cid, calls, tin, tout, inferences):
 def record() -> MissionRecord:
     c1 = CommandRecord(
         "breakfast", "Set up breakfast on the dining table.", GoalRecord(("apple", "bread"), ("dining_table",), 2),
-        summary("breakfast", 4, 1000, 200, [("pickup(apple_1, counter_1)", "hard", 20.0),
-                                            ("place(laptop_1, bed_desk)", "easy", 5.0),
+        # (action, predicted, estimate, measured truth, its c_man, its sr_man); book_1 could not be tried
+        summary("breakfast", 4, 1000, 200, [("pickup(apple_1, counter_1)", "hard", 20.0, "hard", 54.0, 0.5),
+                                            ("place(laptop_1, bed_desk)", "easy", 5.0, "easy", 3.0, 1.0),
                                             ("pickup(book_1, shelf_2)", "easy", 5.0),
-                                            ("pickup(mug_1, shelf_1)", "unknown", 0.0)]),
+                                            ("pickup(mug_1, shelf_1)", "unknown", 0.0, "hard", 110.0, 0.0)]),
         [nav("counter_1", "kitchen", 1, 5.0, 12.0),
          man("pickup", "apple_1", "counter_1", 0.5, 4.0),
          nav("dining_table", "dining", 0, 3.0, 6.0),
@@ -64,7 +65,7 @@ def record() -> MissionRecord:
         {"apple_1": "dining_table", "mug_1": "shelf_1"})
     c2 = CommandRecord(
         "meeting", "Set up my online meeting in the bedroom.", GoalRecord(("laptop",), ("bed_desk",), 2),
-        summary("meeting", 2, 500, 50, [("pickup(apple_1, counter_1)", "easy", 5.0)]),
+        summary("meeting", 2, 500, 50, [("pickup(apple_1, counter_1)", "easy", 5.0, "hard", 54.0, 0.5)]),
         [nav("desk_1", "office", 0, 2.0, 5.0),
          man("pickup", "laptop_1", "desk_1", 1.0, 3.0),
          nav("bed_desk", "bedroom", 2, 6.0, 20.0),  # two collisions
@@ -150,7 +151,7 @@ def test_bad_record_names_the_key():
     del rec["commands"][1]["goal"]["n_objects"]
     with pytest.raises(RecordError, match=r"commands\[1\]\.goal: missing key 'n_objects'"):
         MissionRecord.from_dict(rec, "m000.json")
-    with pytest.raises(RecordError, match=r"schema_version 0, this code reads 1; rerun the missions stage"):
+    with pytest.raises(RecordError, match=r"schema_version 0, this code reads 2; rerun the missions stage"):
         MissionRecord.from_dict({**record().to_dict(), "schema_version": 0}, "m000.json")
 
 
@@ -178,10 +179,14 @@ def test_aggregate_writes_tables(tmp_path):
     imp = out["improvement"]["inter_llm_vs_sayplan"]
     assert imp["pct"] == pytest.approx(round(100 * 30 / 592, 6)) and imp["n_pairs"] == 1
     sem = out["semantic_accuracy"]["inter_llm@0.8"]
-    assert sem["n_inferences"] == 5 and sem["n_matched"] == 3
-    assert sem["accuracy"] == pytest.approx(round(1 / 3, 6))
-    assert sem["unknown_share"] == pytest.approx(round(1 / 3, 6))
-    assert sem["accuracy_known"] == pytest.approx(0.5)
+    # every inference with a measured truth is judged (not only those whose action ran later)
+    assert sem["n_inferences"] == 5 and sem["n_judged"] == 4
+    assert sem["accuracy"] == pytest.approx(0.5)  # hard>hard, easy>easy right; hard>unknown, hard>easy wrong
+    assert sem["unknown_share"] == pytest.approx(0.25)
+    assert sem["accuracy_known"] == pytest.approx(round(2 / 3, 6))
+    # the measured truth of pickup(apple_1) and pickup(mug_1) agrees with their later executions
+    # (c_man 54 and 100: hard); place(laptop_1, bed_desk) was measured easy but ran at sr 0.8 (hard)
+    assert sem["truth_agreement"] == pytest.approx(round(2 / 3, 6))
     with open(tmp_path / "metrics" / "per_object.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert [float(r["m_overall"]) for r in rows if r["planner"] == "inter_llm"] == [67, 222, 73, 200]

@@ -103,7 +103,7 @@ def test_bootstrap_seed_stable():
 
 def _inferences(pairs: list[tuple[str, str]]) -> list[dict]:
     """Hand-made judged inferences: (truth, predicted)."""
-    return [{"temperature": 0.8, "planner": "inter_llm", "matched": 1, "truth": t, "predicted": p,
+    return [{"temperature": 0.8, "planner": "inter_llm", "judged": 1, "truth": t, "predicted": p,
              "correct": int(t == p)} for t, p in pairs]
 
 

@@ -79,6 +79,13 @@ class SymbolicWorld:
         n = max(int(np.ceil(np.linalg.norm(b - a) / 0.05)), 1)
         return a + (b - a) * np.linspace(0, 1, n + 1)[:, None]
 
+    def measure_manipulation(self, action: Action):
+        """What ``execute`` would measure for a pickup or place, changing nothing."""
+        hard = action.obj in self.hard
+        t = 4.0
+        return ActionResult(action, not hard, man_cost(0.0 if hard else 1.0, t, self.cfg.gamma_man), t,
+                            success_rate=0.0 if hard else 1.0, trials=[ManipulationTrial((0.0, 0.0, 0.0), not hard, t)])
+
     def execute(self, action: Action) -> ActionResult:
         t0 = self.clock
         self.executed.append(str(action))

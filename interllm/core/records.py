@@ -13,13 +13,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Optional
 
 from interllm.core.actions import Plan, plan_from_list, plan_to_list
 from interllm.core.results import ActionResult
 from interllm.errors import UserError
 
-SCHEMA_VERSION = 1  # bump when a field changes meaning or layout
+SCHEMA_VERSION = 2  # bump when a field changes meaning or layout (2: cost inferences carry their ground truth)
 
 
 class RecordError(UserError, ValueError):
@@ -52,18 +52,27 @@ class GoalRecord:
 
 @dataclass(frozen=True)
 class CostInference:
-    """One manipulation-cost inference made while estimating a candidate (Inter-LLM)."""
+    """One manipulation-cost inference made while estimating a candidate (Inter-LLM), with its
+    ground truth: the simulator's N_l-trial measurement of the same action in the scene as it was
+    when the inference was made (``World.measure_manipulation``; the mission is untouched)."""
 
     action: str  # str(Action)
     predicted: str  # easy | medium | hard | unknown
     estimate: float  # decoded cost
+    truth: str = ""  # f_en of the measured cost: easy | medium | hard; "" when the action could not be tried
+    truth_cost: Optional[float] = None  # measured c_man
+    truth_sr: Optional[float] = None  # measured sr_man
 
     def to_dict(self) -> dict:
-        return {"action": self.action, "predicted": self.predicted, "estimate": float(self.estimate)}
+        return {"action": self.action, "predicted": self.predicted, "estimate": float(self.estimate),
+                "truth": self.truth, "truth_cost": None if self.truth_cost is None else float(self.truth_cost),
+                "truth_sr": None if self.truth_sr is None else float(self.truth_sr)}
 
     @classmethod
     def from_dict(cls, d: Mapping, where: str) -> CostInference:
-        return cls(str(_get(d, "action", where)), str(_get(d, "predicted", where)), float(_get(d, "estimate", where)))
+        opt = lambda k: None if _get(d, k, where) is None else float(_get(d, k, where))  # noqa: E731
+        return cls(str(_get(d, "action", where)), str(_get(d, "predicted", where)), float(_get(d, "estimate", where)),
+                   str(_get(d, "truth", where)), opt("truth_cost"), opt("truth_sr"))
 
 
 @dataclass

@@ -102,7 +102,7 @@ def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot
     """{slope [accuracy per unit σ], lo, hi, n_sigma, verdict} of accuracy-when-answered on σ."""
     by: dict[float, list[int]] = {}
     for r in inferences:
-        if str(r.get("planner")) != planner or not int(r.get("matched", 0)) or r.get("predicted") == "unknown":
+        if str(r.get("planner")) != planner or not int(r.get("judged", 0)) or r.get("predicted") == "unknown":
             continue
         t = _num(r.get("temperature"))
         if math.isfinite(t):

@@ -450,7 +450,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         "semantic_accuracy": {f"{r['planner']}@{r['temperature']}": {
             k: r[k] for k in ("accuracy", "accuracy_ci_lo", "accuracy_ci_hi", "unknown_share", "coverage",
                               "accuracy_known", "accuracy_known_ci_lo", "accuracy_known_ci_hi", "chance",
-                              "majority", "verdict", "n_matched", "n_inferences")}
+                              "majority", "verdict", "n_judged", "n_inferences", "truth_agreement")}
             for r in sem},
         "manipulation": manipulation.manipulation_summary(man_rows),
         "llm_calls": {stage: {k: c[k] for k in ("calls", "failed")} for stage, c in calls.items()},
@@ -470,10 +470,11 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     write_csv(out / "manipulation_attributes.csv", man_attr,
               ("attribute", "bin", "n", "c_man", "ci_lo", "ci_hi", "sr_man", "hard_share"))
     write_csv(out / "semantic_accuracy.csv", sem,
-              ("temperature", "planner", "n_inferences", "n_matched", "n_unmatched", "n_correct", "n_unknown",
+              ("temperature", "planner", "n_inferences", "n_judged", "n_unjudged", "n_correct", "n_unknown",
                "accuracy", "accuracy_ci_lo", "accuracy_ci_hi", "unknown_share", "coverage", "accuracy_known",
-               "accuracy_known_ci_lo", "accuracy_known_ci_hi", "chance", "majority", "verdict", "confusion"))
+               "accuracy_known_ci_lo", "accuracy_known_ci_hi", "chance", "majority", "verdict", "confusion",
+               "n_executed", "truth_agreement"))
     write_csv(out / "semantic_inferences.csv", inf_rows,
               ("planner", "scene", "mission", "temperature", "command_index", "action", "predicted",
-               "estimate", "matched", "actual_cost", "truth", "correct"))
+               "estimate", "judged", "truth", "truth_cost", "correct", "executed_truth"))
     return result

@@ -24,7 +24,7 @@ from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, read_json
 from interllm.metrics import claims, plots
 from interllm.metrics.compute import read_csv
-from interllm.metrics.stats import paired_improvement
+from interllm.metrics.stats import LABELS, confusion_matrix, paired_improvement
 from interllm.planners import PLANNERS
 from interllm.record.figures import mission_trajectories_figure
 
@@ -525,22 +525,33 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
             t = r["temperature"]
             paper = PAPER_TABLE_II.get(round(float(t), 1)) if t != "" else None
             sem_rows.append((float(t) if t != "" else -1.0, lab, [
-                _f(t, 1), lab, plots.label(str(r["planner"])), str(r["n_matched"]),
+                _f(t, 1), lab, plots.label(str(r["planner"])), str(r["n_judged"]),
                 f"{_pct(r['accuracy'])} [{_pct(r.get('accuracy_ci_lo'))}, {_pct(r.get('accuracy_ci_hi'))}]",
                 _pct(r.get("coverage")),
                 f"{_pct(r['accuracy_known'])} [{_pct(r.get('accuracy_known_ci_lo'))}, "
                 f"{_pct(r.get('accuracy_known_ci_hi'))}]",
                 f"{_pct(r.get('chance'))} / {_pct(r.get('majority'))}", str(r.get("verdict", "–")),
-                "–" if paper is None else f"{paper:.0f}%"]))
+                "–" if paper is None else f"{paper:.0f}%",
+                f"{_pct(r.get('truth_agreement'))} of {r.get('n_executed', '–')}"]))
     if sem_rows:
         rows = [row for _, _, row in sorted(sem_rows, key=lambda x: (x[0], x[1]))]
-        doc.p("Prediction = class the LLM inferred for a manipulation action; truth = f_en of the cost measured "
-              "when that action first ran later in the mission (only those inferences are judged). Accuracy "
-              "counts 'unknown' as wrong; coverage = share answered; accuracy when answered is compared with "
-              "chance (1/3 over easy / medium / hard) and the majority class (always the commonest true "
-              "class); the verdict says whether its 95% bootstrap CI lies above both.")
+        doc.p("Prediction = class the LLM inferred for a manipulation action; truth = f_en of the cost the "
+              "simulator measured for the same action, by the same N_l-trial protocol, in a scratch copy of the "
+              "scene as it was when the inference was made (the mission is untouched), so every inference is "
+              "judged, whether or not its action ran. Accuracy counts 'unknown' as wrong; coverage = share "
+              "answered; accuracy when answered is compared with chance (1/3 over easy / medium / hard) and "
+              "the majority class (always the commonest true class); the verdict says whether its 95% "
+              "bootstrap CI lies above both. The last column checks the measurement: of the judged "
+              "inferences whose action also ran later, the share whose executed class equals the measured one.")
         doc.table(["temperature σ", "results", "planner", "inferences judged", "accuracy [CI]", "coverage",
-                   "accuracy when answered [CI]", "chance / majority", "verdict", "paper accuracy"], rows)
+                   "accuracy when answered [CI]", "chance / majority", "verdict", "paper accuracy",
+                   "measured = executed class"], rows)
+        conf = confusion_matrix(read_csv(metrics_dir / "semantic_inferences.csv")
+                                if (metrics_dir / "semantic_inferences.csv").is_file() else [])
+        if any(sum(v.values()) for v in conf.values()):
+            doc.p("Confusion matrix of this run's judged inferences (rows: measured class; columns: inferred):")
+            doc.table(["measured \\ inferred"] + list(LABELS),
+                      [[t] + [str(conf[t][p]) for p in LABELS] for t in conf])
     else:
         doc.p("No cost inferences were recorded (only Inter-LLM infers manipulation costs).")
 

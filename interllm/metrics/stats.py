@@ -150,12 +150,15 @@ def _norm(s: str) -> str:
 
 
 def inference_rows(rec: MissionRecord, temperature: Optional[float]) -> list[dict]:
-    """One row per cost inference of a MissionRecord, joined with the first execution of the same
-    action string at or after the inferring command (its actions, then later commands').
+    """One row per cost inference of a MissionRecord, with its ground truth.
 
-    Rows: planner, scene, mission, temperature, command_index, action, predicted, estimate,
-    matched (0/1), actual_cost, truth (f_en of the actual cost), correct (0/1; an 'unknown'
-    prediction is never correct)."""
+    ``truth`` is the class of the simulator's scratch measurement of the same action when the
+    inference was made (every inference that could be tried is judged: ``judged`` 1). As a check
+    of that measurement, ``executed_truth`` is f_en of the cost of the first execution of the same
+    action string at or after the inferring command, when there was one ("" otherwise).
+
+    Rows: planner, scene, mission, temperature, command_index, action, predicted, estimate, judged,
+    truth, truth_cost, correct (0/1; 'unknown' is never correct), executed_truth."""
     executed: list[list[tuple[str, float]]] = [[(_norm(str(a.action)), float(a.cost)) for a in c.actions]
                                                for c in rec.commands]
     out = []
@@ -164,38 +167,51 @@ def inference_rows(rec: MissionRecord, temperature: Optional[float]) -> list[dic
             act = _norm(inf.action)
             pred = inf.predicted.lower()
             hit = next((cost for later in executed[ci:] for s, cost in later if s == act), None)
-            truth = encode_cost(hit) if hit is not None else ""
             out.append({"planner": rec.planner, "scene": rec.scene_id, "mission": rec.mission_id,
                         "temperature": "" if temperature is None else float(temperature),
                         "command_index": ci + 1, "action": inf.action, "predicted": pred,
-                        "estimate": float(inf.estimate), "matched": int(hit is not None),
-                        "actual_cost": "" if hit is None else hit, "truth": truth,
-                        "correct": int(hit is not None and pred == truth)})
+                        "estimate": float(inf.estimate), "judged": int(bool(inf.truth)), "truth": inf.truth,
+                        "truth_cost": "" if inf.truth_cost is None else float(inf.truth_cost),
+                        "correct": int(bool(inf.truth) and pred == inf.truth),
+                        "executed_truth": encode_cost(hit) if hit is not None else ""})
     return out
 
 
 CLASSES = ("easy", "medium", "hard")
+LABELS = CLASSES + ("unknown",)
 CHANCE = 1.0 / len(CLASSES)  # uniform guessing over the three cost classes
 
 
-def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> list[dict]:
-    """Table II per (temperature, planner), over the inferences whose action ran later (matched):
+def confusion_matrix(rows: Iterable[Mapping]) -> dict[str, dict[str, int]]:
+    """{truth: {predicted: count}} over judged inference rows (truth easy / medium / hard;
+    predicted easy / medium / hard / unknown)."""
+    m = {t: {p: 0 for p in LABELS} for t in CLASSES}
+    for r in rows:
+        if int(r.get("judged", 0)) and str(r["truth"]) in m and str(r["predicted"]) in LABELS:
+            m[str(r["truth"])][str(r["predicted"])] += 1
+    return m
 
-    - accuracy = correct / matched ('unknown' counts as wrong), with its bootstrap CI;
-    - coverage = answered (not 'unknown') / matched; accuracy_known = correct / answered, with its CI;
+
+def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> list[dict]:
+    """Table II per (temperature, planner), over every judged inference (ground truth measured):
+
+    - accuracy = correct / judged ('unknown' counts as wrong), with its bootstrap CI;
+    - coverage = answered (not 'unknown') / judged; accuracy_known = correct / answered, with its CI;
     - the baselines for accuracy_known: chance (1/3, uniform over easy / medium / hard) and the
       majority class (always answering the commonest true class of the answered inferences);
     - verdict: "above the baselines" when the CI of accuracy_known lies above both, "below chance"
       when it lies below chance, else "cannot tell";
-    - confusion: "truth>predicted:count" pairs of the matched inferences.
-    Inferences whose action never ran later in the mission are counted as ``n_unmatched``."""
+    - confusion: "truth>predicted:count" pairs of the judged inferences;
+    - truth_agreement: over judged inferences whose action also ran later, the share whose
+      executed class equals the measured truth (how well the scratch measurement predicts the run).
+    Inferences whose action could not be tried are counted as ``n_unjudged``."""
     groups: dict[tuple, list[Mapping]] = {}
     for r in rows:
         groups.setdefault((str(r["temperature"]), str(r["planner"])), []).append(r)
     out = []
     for (t, p) in sorted(groups):
         g = groups[(t, p)]
-        m = [r for r in g if int(r["matched"])]
+        m = [r for r in g if int(r["judged"])]
         known = [r for r in m if r["predicted"] != "unknown"]
         nc = sum(int(r["correct"]) for r in m)
         _, acc_lo, acc_hi = bootstrap_mean_ci([int(r["correct"]) for r in m], n_boot, ci,
@@ -208,8 +224,9 @@ def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0
         for r in m:
             k = f"{r['truth']}>{r['predicted']}"
             conf[k] = conf.get(k, 0) + 1
-        out.append({"temperature": t, "planner": p, "n_inferences": len(g), "n_matched": len(m),
-                    "n_unmatched": len(g) - len(m), "n_correct": nc,
+        ran = [r for r in m if r.get("executed_truth")]
+        out.append({"temperature": t, "planner": p, "n_inferences": len(g), "n_judged": len(m),
+                    "n_unjudged": len(g) - len(m), "n_correct": nc,
                     "n_unknown": len(m) - len(known),
                     "accuracy": nc / len(m) if m else float("nan"), "accuracy_ci_lo": acc_lo,
                     "accuracy_ci_hi": acc_hi,
@@ -218,7 +235,10 @@ def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0
                     "accuracy_known": ak if known else float("nan"), "accuracy_known_ci_lo": ak_lo,
                     "accuracy_known_ci_hi": ak_hi, "chance": CHANCE, "majority": majority,
                     "verdict": _verdict(ak_lo, ak_hi, max(CHANCE, majority)),
-                    "confusion": " ".join(f"{k}:{v}" for k, v in sorted(conf.items()))})
+                    "confusion": " ".join(f"{k}:{v}" for k, v in sorted(conf.items())),
+                    "n_executed": len(ran),
+                    "truth_agreement": (sum(r["executed_truth"] == r["truth"] for r in ran) / len(ran)
+                                        if ran else float("nan"))})
     return out
 
 

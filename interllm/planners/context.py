@@ -14,10 +14,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from interllm.config import PlannerConfig
-from interllm.core.actions import Plan
+from interllm.core.actions import Action, Plan
+from interllm.core.records import CostInference
 from interllm.core.seeding import planning_seed
 from interllm.llm.types import LLMRequest, LLMResponse, ScoreRequest, ScoreResponse
 from interllm.planners.world_view import WorldView
+from interllm.planning.costs import decode_cost, encode_cost
 from interllm.planning.memory import KnownCosts
 from interllm.planning.proposers import Exclusions, Proposer
 from interllm.scene.graph import Command, Mission
@@ -93,6 +95,18 @@ class PlannerContext:
 
     def n_objects(self, command: Command) -> int:
         return int(command.goal.n_objects)
+
+    def infer_cost(self, action: Action, command: Command) -> CostInference:
+        """The proposer's cost class of a manipulation from the known costs, beside its ground truth
+        (the world's scratch measurement of the same action now; Table II judges every inference)."""
+        truth = self.world.measure_manipulation(action)
+        label = self.proposer.costs.infer(action, self.world.scene, self.memory,
+                                          seed_parts=(self.mission.id, command.id, len(self.memory)),
+                                          context=self.labels(command))
+        if truth is None:
+            return CostInference(str(action), label, decode_cost(label))
+        return CostInference(str(action), label, decode_cost(label), encode_cost(truth.cost), float(truth.cost),
+                             float(truth.success_rate))
 
     def candidates_for(self, command: Command) -> list[Plan]:
         return list(self.initial_candidates.get(command.id, []))

@@ -20,7 +20,6 @@ from __future__ import annotations
 import numpy as np
 
 from interllm.core.actions import Plan, State, apply_effects, plan_to_list
-from interllm.core.records import CostInference
 from interllm.planners.base import PLANNERS, CommandResult
 from interllm.planners.context import PlannerContext
 from interllm.planners.execution import execute_plan, finish, new_result
@@ -79,10 +78,9 @@ class InterLLMPlanner:
             else:
                 lk = (str(a), state.describe())
                 if lk not in labels:
-                    labels[lk] = ctx.proposer.costs.infer(a, world.scene, mem,
-                                                          seed_parts=(ctx.mission.id, command.id, len(mem)),
-                                                          context=ctx.labels(command))
-                    result.cost_inferences.append(CostInference(str(a), labels[lk], decode_cost(labels[lk])))
+                    inference = ctx.infer_cost(a, command)
+                    labels[lk] = inference.predicted
+                    result.cost_inferences.append(inference)
                 lab = labels[lk]
                 if lab == "unknown" and cfg.nav_estimate == "prior":  # no novelty bias for manipulation either
                     man.append(CostEstimate(str(a), a.kind, unknown_manipulation_estimate(a.kind, mem), "prior",

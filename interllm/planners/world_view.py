@@ -30,5 +30,9 @@ class WorldView(Protocol):
     def anchor(self, furniture_id: str) -> tuple[float, float]:
         """The goal point [m] of a navigation to ``furniture_id``."""
 
+    def measure_manipulation(self, action: Action) -> Optional[ActionResult]:
+        """Ground truth of a manipulation's cost now, measured without changing the mission (None:
+        it cannot be tried)."""
+
     def presumed_path(self, start_xy, furniture_id: str) -> Optional[np.ndarray]:
         """The path [N, 2] [m] the robot's map presumes from ``start_xy`` to the furniture, or None."""

@@ -42,8 +42,8 @@ from; ``World.state.holding`` is the truth.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Optional
 
 import mink
@@ -362,6 +362,62 @@ def place_spot(scene: SceneGraph, furniture_id: str, obj_size, near_xy, held: Op
     return None
 
 
+@dataclass(frozen=True)
+class _Goal:
+    """Where the gripper goes for a pickup or place: target [m], the box the grip site must end in,
+    the object left out of the IK model (the held one), and the failure text."""
+
+    target: np.ndarray
+    inside: tuple[np.ndarray, np.ndarray]
+    ik_exclude: tuple[str, ...]
+    what_failed: str
+    spot: Optional[np.ndarray] = None  # place: the object's centre on the surface [m]
+
+
+def _hand_and_place(state: State, action: Action, holding: Optional[str]) -> str:
+    """Why the robot's state does not allow ``action`` ("" when it does)."""
+    if holding is None and state.holding is not None:
+        return f"the hand is not free (holding {state.holding})"
+    if holding is not None and state.holding != holding:
+        return f"the robot is not holding {holding} (holding {state.holding or 'nothing'})"
+    if state.at_furniture != action.furniture:
+        return f"the robot is at {state.at_furniture}, not at {action.furniture}"
+    return ""
+
+
+def _pickup_goal(scene: SceneGraph, action: Action) -> _Goal | str:
+    """The grasp of ``action.obj`` where it stands, or why there is none."""
+    if action.furniture not in scene.furniture:
+        return f"unknown furniture {action.furniture!r}"
+    if action.obj not in scene.objects:
+        return f"unknown object {action.obj!r}"
+    o = scene.objects[action.obj]
+    if o.furniture != action.furniture:
+        return f"{action.obj} is on {o.furniture}, not on {action.furniture}"
+    f = scene.furniture[action.furniture]
+    target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
+    half = np.asarray(o.size, dtype=float) / 2
+    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
+    return _Goal(target, inside, (), "no collision-free grasp")
+
+
+def _place_goal(scene: SceneGraph, action: Action, robot_xy) -> _Goal | str:
+    """The release of the held ``action.obj`` at the free spot nearest ``robot_xy``, or why there is none."""
+    if action.furniture not in scene.furniture:
+        return f"unknown furniture {action.furniture!r}"
+    if action.obj not in scene.objects:
+        return f"unknown object {action.obj!r}"
+    o = scene.objects[action.obj]
+    f = scene.furniture[action.furniture]
+    spot = place_spot(scene, action.furniture, o.size, robot_xy, action.obj)
+    if spot is None:
+        return f"no free spot for {action.obj} on {action.furniture}"
+    target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
+    half = np.asarray(o.size, dtype=float) / 2
+    inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
+    return _Goal(target, inside, (action.obj,), "no collision-free placing pose", spot)
+
+
 class Manipulator:
     """Pickups and places by N_l IK trials (module doc); caches one IK model per furniture layout.
 
@@ -374,9 +430,14 @@ class Manipulator:
         self.cfg = cfg
         self._ik: dict[tuple, LocalIK] = {}
 
+    def layout_key(self, scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...] = ()) -> tuple:
+        """What the trials at a furniture depend on in the scene: the furniture within reach of it and
+        every object on them but ``exclude``, with their positions and sizes."""
+        return _layout_key(scene, furniture_id, exclude, ik_neighbourhood(self.cfg))
+
     def local_ik(self, scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...] = ()) -> LocalIK:
         """The small IK model for a furniture's current layout (cached)."""
-        key = _layout_key(scene, furniture_id, exclude, ik_neighbourhood(self.cfg))
+        key = self.layout_key(scene, furniture_id, exclude)
         hit = self._ik.get(key)
         if hit is not None:
             return hit
@@ -386,56 +447,55 @@ class Manipulator:
         self._ik[key] = ik
         return ik
 
-    def _poses(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, action: Action,
-               target: np.ndarray) -> list[BasePose]:
-        x, y, _ = physics.robot_pose
-        return sample_base_poses(self.cfg, belief.presumed, belief.true, scene.furniture[action.furniture],
-                                 target, (x, y), action, self.cfg.n_l)
+    def _trials(self, belief: BeliefMap, scene: SceneGraph, action: Action, goal: _Goal, robot_xy) -> tuple:
+        """Steps 1-3 and 5 of the module doc from ``robot_xy`` [m]: (result, poses, per-trial IK
+        solutions, index of the first successful trial or -1). Touches neither the world nor the scene."""
+        cfg = self.cfg
+        poses = sample_base_poses(cfg, belief.presumed, belief.true, scene.furniture[action.furniture], goal.target,
+                                  (float(robot_xy[0]), float(robot_xy[1])), action, cfg.n_l)
+        if not poses:
+            res = _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
+            return res, [], [], -1
+        ik = self.local_ik(scene, action.furniture, exclude=goal.ik_exclude)
+        trials, sols = _run_trials(cfg, ik, poses, goal.target, goal.inside, ik.obstacles(but=(action.obj,)))
+        res, k = _result(cfg, action, trials, goal.what_failed)
+        return res, poses, sols, k
 
     def _trials_then_motion(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, clock: float,
-                            action: Action, target: np.ndarray, inside_box, ik_exclude: tuple[str, ...],
-                            what_failed: str, at_grasp) -> ActionResult:
-        """Steps 1-5 of the module doc for a pickup or place whose preconditions hold: the N_l trials
-        on the IK model without ``ik_exclude`` (the held object), then the motion from the first
-        successful pose, calling ``at_grasp(result, t)`` when the gripper closes or opens."""
-        cfg = self.cfg
-        poses = self._poses(physics, belief, scene, action, target)
-        if not poses:
-            return _precondition_fail(cfg, action, f"no free base pose next to {action.furniture} on the robot's map")
-        ik = self.local_ik(scene, action.furniture, exclude=ik_exclude)
-        trials, sols = _run_trials(cfg, ik, poses, target, inside_box, ik.obstacles(but=(action.obj,)))
-        res, k = _result(cfg, action, trials, what_failed)
+                            action: Action, goal: _Goal, at_grasp) -> ActionResult:
+        """Steps 1-5 of the module doc for a pickup or place whose preconditions hold: the N_l trials,
+        then the motion from the first successful pose, calling ``at_grasp(result, t)`` when the
+        gripper closes or opens."""
+        x, y, _ = physics.robot_pose
+        res, poses, sols, k = self._trials(belief, scene, action, goal, (x, y))
         if k < 0:
             res.trajectory = physics.make_trajectory([physics.sample(clock), physics.sample(clock + res.time)])
             return res
-        q_pre, q_grasp = sols[k]  # type: ignore[misc]
+        q_pre, q_grasp = sols[k]
         samples = _execute_motion(physics, poses[k].pose, q_pre, q_grasp, clock, res.time, lambda t: at_grasp(res, t))
         physics.forward()
         res.trajectory = physics.make_trajectory(samples)
         return res
 
+    def measure(self, belief: BeliefMap, scene: SceneGraph, action: Action, robot_xy) -> Optional[ActionResult]:
+        """The N_l-trial measurement of ``action`` (pickup or place) as it would run with the robot at
+        ``robot_xy`` [m], the hand free for a pickup and holding the object for a place — without
+        moving anything: the ground truth of a cost inference. None when the action cannot be tried
+        in ``scene`` (unknown ids, the object not on that furniture, no room to put it)."""
+        goal = _pickup_goal(scene, action) if action.kind == "pickup" else _place_goal(scene, action, robot_xy)
+        if isinstance(goal, str):
+            return None
+        return self._trials(belief, scene, action, goal, robot_xy)[0]
+
     def pickup(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
                action: Action) -> ActionResult:
         """Pick up ``action.obj`` from ``action.furniture`` (see the module doc), starting at ``clock`` [s]."""
-        st = state
-        cfg = self.cfg
         if action.kind != "pickup":
             raise ValueError(f"Manipulator.pickup got a {action.kind!r} action: {action}")
-        if action.furniture not in scene.furniture:
-            return _precondition_fail(cfg, action, f"unknown furniture {action.furniture!r}")
-        if action.obj not in scene.objects:
-            return _precondition_fail(cfg, action, f"unknown object {action.obj!r}")
-        if st.holding is not None:
-            return _precondition_fail(cfg, action, f"the hand is not free (holding {st.holding})")
-        if st.at_furniture != action.furniture:
-            return _precondition_fail(cfg, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
-        o = scene.objects[action.obj]
-        if o.furniture != action.furniture:
-            return _precondition_fail(cfg, action, f"{action.obj} is on {o.furniture}, not on {action.furniture}")
-        f = scene.furniture[action.furniture]
-        target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
-        half = np.asarray(o.size, dtype=float) / 2
-        inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
+        why = _hand_and_place(state, action, holding=None)
+        goal = _pickup_goal(scene, action) if not why else why
+        if isinstance(goal, str):
+            return _precondition_fail(self.cfg, action, goal)
 
         def grasp(res: ActionResult, t: float):
             physics.attach(action.obj)
@@ -443,32 +503,19 @@ class Manipulator:
             res.object_events.append(ObjectEvent(t, action.obj, GRIP_FRAME, tuple(float(v) for v in pos),
                                                  wxyz_to_xyzw(quat)))
 
-        return self._trials_then_motion(physics, belief, scene, clock, action, target, inside, (),
-                                        "no collision-free grasp", grasp)
+        return self._trials_then_motion(physics, belief, scene, clock, action, goal, grasp)
 
     def place(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, state: State, clock: float,
               action: Action) -> ActionResult:
         """Place the held ``action.obj`` on ``action.furniture`` (see the module doc), starting at ``clock`` [s]."""
-        st = state
-        cfg = self.cfg
         if action.kind != "place":
             raise ValueError(f"Manipulator.place got a {action.kind!r} action: {action}")
-        if action.furniture not in scene.furniture:
-            return _precondition_fail(cfg, action, f"unknown furniture {action.furniture!r}")
-        if st.holding != action.obj:
-            return _precondition_fail(cfg, action, f"the robot is not holding {action.obj} "
-                                                     f"(holding {st.holding or 'nothing'})")
-        if st.at_furniture != action.furniture:
-            return _precondition_fail(cfg, action, f"the robot is at {st.at_furniture}, not at {action.furniture}")
-        o = scene.objects[action.obj]
-        f = scene.furniture[action.furniture]
         x, y, _ = physics.robot_pose
-        spot = place_spot(scene, action.furniture, o.size, (x, y), st.holding)
-        if spot is None:
-            return _precondition_fail(cfg, action, f"no free spot for {action.obj} on {action.furniture}")
-        target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
-        half = np.asarray(o.size, dtype=float) / 2
-        inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
+        why = _hand_and_place(state, action, holding=action.obj)
+        goal = _place_goal(scene, action, (x, y)) if not why else why
+        if isinstance(goal, str):
+            return _precondition_fail(self.cfg, action, goal)
+        spot = goal.spot
 
         def release(res: ActionResult, t: float):
             physics.release()
@@ -477,5 +524,4 @@ class Manipulator:
             physics.set_object_pose(action.obj, pos)
             res.object_events.append(ObjectEvent(t, action.obj, WORLD_FRAME, pos, (0.0, 0.0, 0.0, 1.0)))
 
-        return self._trials_then_motion(physics, belief, scene, clock, action, target, inside, (action.obj,),
-                                        "no collision-free placing pose", release)
+        return self._trials_then_motion(physics, belief, scene, clock, action, goal, release)

@@ -54,6 +54,7 @@ class World:
         self.state = State(None, None, None)
         self.clock = 0.0
         self.log: list[ActionResult] = []
+        self._measured: dict[tuple, Optional[ActionResult]] = {}
         self.physics.reset(self.scene, (0.0, 0.0, 0.0))
 
     @property
@@ -72,6 +73,7 @@ class World:
         self.state = State(mission.start_furniture, self.scene.furniture[mission.start_furniture].room, None)
         self.clock = 0.0
         self.log = []
+        self._measured = {}
         self.physics.reset(self.scene, tuple(mission.start))
         return self.state
 
@@ -82,6 +84,23 @@ class World:
     def presumed_path(self, start_xy, furniture_id: str) -> Optional[np.ndarray]:
         """The paper's presumed path p^pre [N, 2] [m] on the current belief map, or None."""
         return self.belief.presumed_path(start_xy, furniture_id)
+
+    def measure_manipulation(self, action: Action) -> Optional[ActionResult]:
+        """Ground truth for a cost inference: the N_l-trial measurement of a pickup or place in the
+        scene as it is now, with the robot at the furniture's anchor (where a navigate to it ends),
+        the hand free for a pickup and holding the object for a place. A scratch measurement: the
+        scene, state, clock, map and robot are untouched. None when the action cannot be tried
+        (``Manipulator.measure``). Memoised per action and layout of the furniture's surroundings."""
+        if action.kind not in ("pickup", "place"):
+            raise ValueError(f"measure_manipulation takes a pickup or place, got {action}")
+        if action.furniture not in self.scene.furniture:
+            return None
+        exclude = (action.obj,) if action.kind == "place" else ()
+        key = (str(action), self.manipulator.layout_key(self.scene, action.furniture, exclude))
+        if key not in self._measured:
+            self._measured[key] = self.manipulator.measure(self.belief, self.scene, action,
+                                                           self.anchor(action.furniture))
+        return self._measured[key]
 
     def execute(self, action: Action) -> ActionResult:
         """Run one high-level action; advances ``clock`` by ``result.time`` and, on success,
