@@ -128,6 +128,17 @@ class LLMConfig:
     repair_retries: int = 2  # re-asks after malformed output
     calibrate: bool = True  # score calibration against a content-free prompt
     max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail
+    # llm=oracle: the share of the oracle's answers (relevance, target, cost class) replaced by
+    # seeded random ones (interllm/planning/oracle.py); read only when llm.backend is oracle
+    oracle_error: float = 0.0
+
+    @property
+    def source_label(self) -> str:
+        """What answered the planners' questions, as tables, logs and figures name it: the model, or
+        "oracle (error e)" for the ground-truth source."""
+        if self.backend == "oracle":
+            return f"oracle (error {self.oracle_error:g})"
+        return f"{self.backend} {self.model or 'gemma3-270m'}"
 
     @property
     def plan_sampling_temperature(self) -> float:
@@ -151,6 +162,12 @@ class LLMConfig:
         _check(0 <= self.repair_retries <= 10, "llm.repair_retries", "must be in [0, 10]")
         _check(0.0 <= self.max_failure_share <= 1.0, "llm.max_failure_share",
                f"must be in [0, 1] (share of failed or unparseable LLM calls), got {self.max_failure_share}")
+        _check(0.0 <= self.oracle_error <= 1.0, "llm.oracle_error", f"must be in [0, 1], got {self.oracle_error}")
+        oracle = [self.backend == "oracle", self.proposal_mode == "oracle", self.cost_inference_mode == "oracle"]
+        _check(all(oracle) or not any(oracle), "llm.backend",
+               "the oracle answers from ground truth and is never mixed with a model: use llm=oracle (backend, "
+               f"proposal_mode and cost_inference_mode all 'oracle'), got backend={self.backend!r}, "
+               f"proposal_mode={self.proposal_mode!r}, cost_inference_mode={self.cost_inference_mode!r}")
 
 
 @dataclass

@@ -157,6 +157,6 @@ def test_a_new_backend_and_proposal_mode_run_the_quick_experiment(registered, tm
 def test_unregistered_names_fail_before_any_output(tmp_path):
     cfg = _quick(tmp_path, backend="nope")
     with pytest.raises(ConfigError, match=r"'llm.backend': 'nope' is not a registered LLM backend; choose one "
-                                          r"of \['embedded', 'ollama', 'openai'\]"):
+                                          r"of \['embedded', 'ollama', 'openai', 'oracle'\]"):
         run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
     assert not (tmp_path / "candidates").exists()

@@ -12,7 +12,7 @@ Modules: ``types`` (requests and responses), ``backend`` (the Backend protocol a
 ``ollama_backend``; ``testing`` holds a deterministic test backend (never imported here).
 """
 
-from interllm.llm import embedded, ollama_backend, openai_backend  # noqa: F401  (each registers its backend)
+from interllm.llm import embedded, ollama_backend, openai_backend, oracle_backend  # noqa: F401  (each registers its backend)
 from interllm.llm.backend import BACKENDS, Backend, Generation, Scores, make_backend, preflight
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog

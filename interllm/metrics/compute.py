@@ -456,7 +456,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
         "llm_calls": {stage: {k: c[k] for k in ("calls", "failed")} for stage, c in calls.items()},
         "settings": {"gamma_nav": g.nav, "gamma_man": g.man, "gamma_obj": g.obj, "bootstrap_samples": B,
                      "ci": ci, "seed": seed, "temperature": temp, "reference": reference,
-                     "n_runs": len(records)},
+                     "n_runs": len(records), "source": cfg.llm.source_label},
     }
     result = _clean(result)
     write_json(out / "metrics.json", result)

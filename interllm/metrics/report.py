@@ -389,7 +389,7 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     doc = _Doc()
     s = metrics.get("settings", {})
     doc.h(1, "Inter-LLM experiment report")
-    doc.p(f"{s.get('n_runs', '?')} mission runs; γ_nav = {s.get('gamma_nav')}, γ_man = {s.get('gamma_man')}, "
+    doc.p(f"Input source: **{s.get('source', '?')}**. {s.get('n_runs', '?')} mission runs; γ_nav = {s.get('gamma_nav')}, γ_man = {s.get('gamma_man')}, "
           f"γ_obj = {s.get('gamma_obj')}; LLM temperature {s.get('temperature')}; "
           f"{int(100 * float(s.get('ci', 0.95)))}% percentile bootstrap CIs with B = "
           f"{s.get('bootstrap_samples')} (seed {s.get('seed')}). All times are simulated seconds.")

@@ -44,10 +44,10 @@ def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_c
                          base_speed=cfg.sim.base_speed, initial_candidates=candidates_from_json(initial_candidates))
     observed = client.with_context(planner=planner_name, scene=world.scene.id, mission=mission.id) \
         .with_observer(ctx.on_llm_call)
-    ctx.proposer = make_proposer(observed, cfg.llm)
+    ctx.proposer = make_proposer(observed, cfg.llm, ground_truth=world)
     record = MissionRecord(planner=planner_name, scene_id=world.scene.id, mission_id=mission.id)
     for cmd in mission.commands:
-        recorder.log(float(world.clock), "info", f"{planner_name}: command {cmd.id}: {cmd.text}")
+        recorder.log(float(world.clock), "info", f"{planner_name} ({cfg.llm.source_label}): command {cmd.id}: {cmd.text}")
         ctx.command_delivered = []
         res = planner.run_command(cmd, ctx)
         picked: list[str] = []

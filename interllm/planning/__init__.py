@@ -1,4 +1,7 @@
 """High-level planning: the feasibility checker (``feasibility``), grid search (``search``), path
 similarity (``similarity``), known costs (``memory``), cost estimation (``costs``), and how the LLM
 proposes plans and cost labels (``proposers``, one implementation per mode over ``generation``
-and ``scoring``; ``text`` and ``plans`` hold the prompts' views and the plan format)."""
+and ``scoring``; ``oracle``: the ground-truth input source; ``text`` and ``plans`` hold the prompts'
+views and the plan format)."""
+
+from interllm.planning import oracle  # noqa: F401  (registers the oracle proposal and cost modes)

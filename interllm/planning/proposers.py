@@ -149,7 +149,16 @@ class Proposer:
     costs: CostInferrer
 
 
-def make_proposer(client: LLMClientProtocol, cfg: LLMConfig) -> Proposer:
-    """The proposer of ``llm.proposal_mode`` and ``llm.cost_inference_mode``."""
-    return Proposer(PLAN_PROPOSERS.get(cfg.proposal_mode)(client, cfg),
-                    COST_INFERRERS.get(cfg.cost_inference_mode)(client, cfg))
+def _build(cls: Any, client: LLMClientProtocol, cfg: LLMConfig, ground_truth: Any) -> Any:
+    """An instance of a registered mode; a class with ``reads_ground_truth = True`` (the oracle)
+    also gets the world's ground truth."""
+    if getattr(cls, "reads_ground_truth", False):
+        return cls(client, cfg, ground_truth=ground_truth)
+    return cls(client, cfg)
+
+
+def make_proposer(client: LLMClientProtocol, cfg: LLMConfig, ground_truth: Any = None) -> Proposer:
+    """The proposer of ``llm.proposal_mode`` and ``llm.cost_inference_mode``; ``ground_truth``: the
+    world (``measure_manipulation``), read only by the oracle modes (``planning.oracle``)."""
+    return Proposer(_build(PLAN_PROPOSERS.get(cfg.proposal_mode), client, cfg, ground_truth),
+                    _build(COST_INFERRERS.get(cfg.cost_inference_mode), client, cfg, ground_truth))

@@ -1,0 +1,112 @@
+"""The oracle input source (``llm=oracle``): the LLM-capability axis's far end, answering from
+ground truth instead of a model, so that what Inter-LLM's look-ahead does can be told apart from
+what the model knows.
+
+- **Plans** (``llm.proposal_mode=oracle``): an object is relevant to a command when its category
+  is one the command's goal asks for (``Command.goal.categories``); the target furniture is the
+  goal's (``Command.goal.target_furniture``). These answers become score-mode scores (relevant 0,
+  irrelevant ``-IRRELEVANT``), so candidates, repairs and replans are sampled exactly as in score
+  mode (``planning.scoring``): M distinct selections, random among the relevant instances. The
+  oracle knows what the command asks for, not how hard an object is to reach.
+- **Cost classes** (``llm.cost_inference_mode=oracle``): f_en of the simulator's scratch
+  measurement of the action (``GroundTruth.measure_manipulation``, the same one Table II judges
+  against); "unknown" when the action cannot be tried.
+- **Controlled error** (``llm.oracle_error`` = e in [0, 1]): each answer — each object's
+  relevance, a command's target, each cost class — is replaced with probability e by a seeded
+  random one (a fair coin for relevance, a uniformly drawn furniture for the target, a uniformly
+  drawn class for a cost). The draws are seeded by what is asked (scene, mission, command, object
+  or action), never by the planner, so all three planners meet the same wrong answers.
+
+It calls no LLM: nothing reaches the LLM cache or the call log, and the runs are labelled
+"oracle" wherever results are shown (``config.LLMConfig.source_label``).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Optional, Protocol
+
+import numpy as np
+
+from interllm.config import LLMConfig
+from interllm.core.actions import Action
+from interllm.core.results import ActionResult
+from interllm.core.seeding import derive_seed
+from interllm.planning.costs import encode_cost
+from interllm.planning.memory import KnownCosts
+from interllm.planning.proposers import COST_INFERRERS, PLAN_PROPOSERS, ScorePlans
+from interllm.planning.scoring import SemanticScores
+from interllm.scene.graph import Command, SceneGraph
+
+IRRELEVANT = 1000.0  # score gap between a relevant and an irrelevant answer (far beyond any Gumbel draw)
+CLASSES = ("easy", "medium", "hard")
+
+
+class GroundTruth(Protocol):
+    """What the oracle reads the true cost of a manipulation from (the simulated world)."""
+
+    def measure_manipulation(self, action: Action) -> Optional[ActionResult]:
+        """The N_l-trial measurement of ``action`` now, changing nothing; None if it cannot be tried."""
+
+
+def _draw(cfg: LLMConfig, *question: Any) -> np.random.Generator:
+    """The generator of the error draws for one question."""
+    return np.random.default_rng(derive_seed("oracle", int(cfg.seed), *question))
+
+
+def _where(context: tuple) -> tuple[str, str]:
+    labels = dict(context)
+    return str(labels.get("scene", "")), str(labels.get("mission", ""))
+
+
+def oracle_scores(scene: SceneGraph, command: Command, cfg: LLMConfig, context: tuple = ()) -> SemanticScores:
+    """Relevance of every object and the target of ``command`` from its goal, with the share
+    ``llm.oracle_error`` of answers replaced by seeded random ones (module doc)."""
+    sid, mid = _where(context)
+    wanted = set(command.goal.categories)
+    instances: dict[str, float] = {}
+    for oid in sorted(scene.objects):
+        relevant = scene.objects[oid].category in wanted
+        rng = _draw(cfg, sid, mid, command.id, "object", oid)
+        if rng.random() < cfg.oracle_error:
+            relevant = bool(rng.random() < 0.5)
+        instances[oid] = 0.0 if relevant else -IRRELEVANT
+    furniture = sorted(scene.furniture)
+    targets = {f for f in command.goal.target_furniture if f in scene.furniture}
+    rng = _draw(cfg, sid, mid, command.id, "target")
+    if rng.random() < cfg.oracle_error or not targets:
+        targets = {furniture[int(rng.integers(len(furniture)))]}
+    categories = {c: 0.0 if c in wanted else -IRRELEVANT for c in sorted({o.category for o in scene.objects.values()})}
+    return SemanticScores(categories, instances, {f: 0.0 if f in targets else -IRRELEVANT for f in furniture})
+
+
+@PLAN_PROPOSERS.register("oracle")
+class OraclePlans(ScorePlans):
+    """Score-mode proposals over the oracle's scores (module doc); no LLM call."""
+
+    def scores(self, scene: SceneGraph, command: Command, known: Optional[KnownCosts],
+               context: tuple) -> SemanticScores:
+        key = (scene.id, command.id, _where(context))
+        if key not in self._scores:
+            self._scores[key] = oracle_scores(scene, command, self.cfg, context)
+        return self._scores[key]
+
+
+@COST_INFERRERS.register("oracle")
+class OracleCosts:
+    """The measured cost class of a manipulation, wrong with probability ``llm.oracle_error``."""
+
+    reads_ground_truth = True
+
+    def __init__(self, client: Any, cfg: LLMConfig, ground_truth: Optional[GroundTruth] = None) -> None:
+        self.cfg, self.truth = cfg, ground_truth
+
+    def infer(self, action: Action, scene: SceneGraph, known: KnownCosts, *, seed_parts, context) -> str:
+        if self.truth is None:
+            raise RuntimeError("llm.cost_inference_mode=oracle needs the world's ground truth: build the proposer "
+                               "with make_proposer(client, cfg, ground_truth=world)")
+        measured = self.truth.measure_manipulation(action)
+        label = "unknown" if measured is None else encode_cost(measured.cost)
+        rng = _draw(self.cfg, *_where(context), "cost", *seed_parts, str(action))
+        if rng.random() < self.cfg.oracle_error:
+            label = CLASSES[int(rng.integers(len(CLASSES)))]
+        return label
