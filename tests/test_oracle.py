@@ -130,3 +130,61 @@ def test_the_oracle_is_never_mixed_with_a_model():
         oracle_cfg(1.5)
     assert oracle_cfg(0.25).source_label == "oracle (error 0.25)"
     assert ExperimentConfig().llm.source_label == "embedded gemma3-270m"
+
+
+def test_equivalent_error_and_where_the_look_ahead_stops_paying():
+    from interllm.metrics.capability import equivalent_error, largest_paying_error
+
+    sweep = [(0.0, 1.0), (0.1, 0.95), (0.25, 0.87), (0.5, 0.75)]
+    assert equivalent_error(0.91, sweep) == pytest.approx(0.175)  # halfway between 0.95 and 0.87
+    assert equivalent_error(1.0, sweep) == 0.0
+    assert equivalent_error(0.6, sweep) is None and equivalent_error(0.9, sweep[:1]) is None
+    # CI lower bounds above 0 up to 0.1, not at 0.25: the look-ahead pays up to 0.1
+    assert largest_paying_error([(0.0, 2.0, 9.0), (0.1, 0.5, 6.0), (0.25, -1.0, 4.0), (0.5, 1.0, 3.0)]) == 0.1
+    assert largest_paying_error([(0.0, -0.1, 5.0)]) is None
+
+
+def test_answer_accuracy_counts_relevant_objects_and_right_targets():
+    from test_metrics_compute import SCENE, record
+
+    from interllm.core.actions import Action
+    from interllm.metrics.capability import answer_accuracy
+
+    rec = record()
+    breakfast = rec.commands[0].summary  # asks for apple / bread on dining_table
+    breakfast.candidates = [
+        (Action("pickup", "counter_1", obj="apple_1"), Action("place", "dining_table", obj="apple_1"),
+         Action("pickup", "counter_1", obj="bread_1"), Action("place", "dining_table", obj="bread_1")),
+        (Action("pickup", "desk_1", obj="laptop_1"), Action("place", "bed_desk", obj="laptop_1"))]
+    rec.commands[1].summary.candidates = []
+    a = answer_accuracy([rec], {"s0": SCENE})
+    assert (a["n_objects"], a["n_candidates"]) == (3, 2)
+    assert a["relevance"] == pytest.approx(2 / 3) and a["target"] == pytest.approx(0.5)
+
+
+def test_the_sweep_report_places_a_run_on_the_oracle_axis(tmp_path, monkeypatch):
+    """Two quick oracle runs (error 0 and 1) form the sweep; a third at error 0.5 plays the model."""
+    from interllm.stages.report import find_oracle_results, run_report
+
+    monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    runs = {}
+    for e in (0.0, 0.5, 1.0):
+        job = tmp_path / "multirun" / f"e{e}"
+        cfg = from_dict({"jobs": 1, "scene": {"n_scenes": 1}, "mission": {"n_missions": 1},
+                         "experiment": "oracle_sweep",
+                         "llm": {"backend": "oracle", "proposal_mode": "oracle", "cost_inference_mode": "oracle",
+                                 "oracle_error": e, "cache_dir": str(tmp_path / "cache")}})
+        run_all(cfg, job / "data")
+        if e != 0.5:
+            (job / ".hydra").mkdir(parents=True)
+            (job / ".hydra" / "config.yaml").write_text(json.dumps({"experiment": "oracle_sweep",
+                                                                    "llm": {"oracle_error": e}}))
+        runs[e] = (cfg, job / "data")
+    found = find_oracle_results(tmp_path / "multirun")
+    assert [e for e, _ in found] == [0.0, 1.0]
+    cfg, data = runs[0.5]
+    run_report(cfg, data / "metrics", data / "scenes", data / "runs", tmp_path / "out", oracle_results=found)
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "LLM capability: the oracle sweep" in md
+    assert "oracle (error 0.5) sits where its accuracy on object relevance" in md
+    assert (tmp_path / "out" / "figures" / "capability.png").stat().st_size > 10_000

@@ -51,7 +51,7 @@ from interllm.core.results import ActionResult
 from interllm.core.seeding import bootstrap_seed
 from interllm.errors import UserError
 from interllm.io import atomic_write_text, read_json, write_json
-from interllm.metrics import manipulation, stats
+from interllm.metrics import capability, manipulation, stats
 
 MANIPULATION_KINDS = ("pickup", "place")
 PER_OBJECT_FIELDS = ("planner", "scene", "mission", "command_index", "command", "slot", "object_index",
@@ -453,6 +453,7 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
                               "majority", "verdict", "n_judged", "n_inferences", "truth_agreement")}
             for r in sem},
         "manipulation": manipulation.manipulation_summary(man_rows),
+        "answers": capability.answer_accuracy(records, scenes),
         "llm_calls": {stage: {k: c[k] for k in ("calls", "failed")} for stage, c in calls.items()},
         "settings": {"gamma_nav": g.nav, "gamma_man": g.man, "gamma_obj": g.obj, "bootstrap_samples": B,
                      "ci": ci, "seed": seed, "temperature": temp, "reference": reference,

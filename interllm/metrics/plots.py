@@ -139,3 +139,42 @@ def path_similarity_figure(path: str | os.PathLike, eps: float = 1.0) -> tuple[O
     fig.tight_layout()
     note = (f"P° (of 200) with ε = {eps} m: " + ", ".join(f"{n} {v:.1f}" for (n, _, _), v in zip(pairs, vals, strict=True)))
     return _save(fig, path), note
+
+
+def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: list[str], reference: str,
+                      path: str | os.PathLike) -> Path:
+    """The LLM-capability axis. Left: m_overall per mission [CI] of each planner against the oracle's
+    error, with the model's m_overall marked at its equivalent error (by relevance accuracy).
+    Right: the reference planner's paired improvement [%, CI] over each baseline, the model's marked
+    the same way. sweep: [(error, row)], model: a row (``report._source_row``); where: {"relevance":
+    equivalent error or None, ...}."""
+    plt = _plt()
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    xs = np.array([e for e, _ in sweep])
+    x_model = where.get("relevance")
+    for p in planners:
+        vals = np.array([r["planners"].get(p, (np.nan,) * 3) for _, r in sweep], dtype=float)
+        line = ax1.plot(xs, vals[:, 0], marker="o", label=f"{label(p)} (oracle)", color=color(p))[0]
+        ax1.fill_between(xs, vals[:, 1], vals[:, 2], alpha=0.15, color=line.get_color())
+        if x_model is not None and p in model["planners"]:
+            m, lo, hi = model["planners"][p]
+            ax1.errorbar([x_model], [m], yerr=[[m - lo], [hi - m]], marker="*", markersize=12, capsize=3,
+                         color=line.get_color(), linestyle="none")
+    ax1.set_xlabel("oracle error (share of random answers)")
+    ax1.set_ylabel("m_overall per mission (lower is better)")
+    ax1.set_title(f"stars: {model['source']} at its relevance-equivalent error", fontsize=9)
+    ax1.legend(fontsize=8)
+    for b in [p for p in planners if p != reference]:
+        vals = np.array([r["improvement"].get(b, (np.nan,) * 3) for _, r in sweep], dtype=float)
+        line = ax2.plot(xs, vals[:, 0], marker="o", label=f"vs {label(b)}", color=color(b))[0]
+        ax2.fill_between(xs, vals[:, 1], vals[:, 2], alpha=0.15, color=line.get_color())
+        if x_model is not None and b in model["improvement"]:
+            m, lo, hi = model["improvement"][b]
+            ax2.errorbar([x_model], [m], yerr=[[m - lo], [hi - m]], marker="*", markersize=12, capsize=3,
+                         color=line.get_color(), linestyle="none")
+    ax2.axhline(0.0, color="black", linewidth=0.8)
+    ax2.set_xlabel("oracle error (share of random answers)")
+    ax2.set_ylabel(f"{label(reference)} improvement in m_overall [%]")
+    ax2.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)

@@ -22,7 +22,7 @@ from typing import Any, Optional
 from interllm.core.seeding import bootstrap_seed
 from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, read_json
-from interllm.metrics import claims, plots
+from interllm.metrics import capability, claims, plots
 from interllm.metrics.compute import read_csv
 from interllm.metrics.stats import LABELS, confusion_matrix, paired_improvement
 from interllm.planners import PLANNERS
@@ -361,18 +361,84 @@ def _manipulation_section(doc: _Doc, summary: Mapping, attributes_csv: Path) -> 
                     _pct(r["hard_share"])] for r in attrs])
 
 
+def _source_row(metrics: Mapping, reference: str) -> dict:
+    """What the capability table and figure need of one run's metrics.json."""
+    sem = [v for k, v in metrics.get("semantic_accuracy", {}).items() if k.startswith(f"{reference}@")]
+    ans = metrics.get("answers", {})
+    return {"source": metrics.get("settings", {}).get("source", "?"),
+            "relevance": _num_or_nan(ans.get("relevance")), "target": _num_or_nan(ans.get("target")),
+            "cost": _num_or_nan(sem[0].get("accuracy")) if sem else float("nan"),
+            "planners": {p: tuple(_num_or_nan(d.get(k)) for k in ("m_overall", "m_overall_ci_lo", "m_overall_ci_hi"))
+                         for p, d in metrics.get("planners", {}).items()},
+            "delivered": {p: f"{d.get('n_fulfilled')}/{d.get('n_objects')}" for p, d in metrics.get("planners", {}).items()},
+            "improvement": {k.split("_vs_", 1)[1]: tuple(_num_or_nan(v.get(x)) for x in ("pct", "ci_lo", "ci_hi"))
+                            for k, v in metrics.get("improvement", {}).items() if k.startswith(f"{reference}_vs_")}}
+
+
+def _capability_section(doc: _Doc, metrics: Mapping, oracles: Sequence[tuple[float, Path]], fig_dir: Path,
+                        reference: str, figures: list) -> None:
+    """The oracle sweep beside this run's model: accuracies, m_overall and paired improvements per
+    source, the model's place on the oracle-error axis, and how much error the look-ahead survives."""
+    got = [(e, read_json(d / "metrics.json")) for e, d in oracles if (d / "metrics.json").is_file()]
+    if not got:
+        return
+    model = _source_row(metrics, reference)
+    sweep = [(e, _source_row(m, reference)) for e, m in got]
+    planners = _ordered({p for _, r in sweep for p in r["planners"]} | set(model["planners"]))
+    baselines = [p for p in planners if p != reference]
+    doc.h(2, "LLM capability: the oracle sweep and this run's model")
+    doc.p("The same missions with llm=oracle: object relevance and target furniture from each command's goal, "
+          "cost classes from the simulator's measurement, with a share llm.oracle_error of the answers replaced "
+          "by seeded random ones. Oracle runs are never averaged with model runs. Accuracies are measured "
+          "against ground truth for every source: relevance = share of the objects the candidates take that the "
+          "command asks for; target = share of candidates delivering to a furniture the command names; cost "
+          f"class = {plots.label(reference)}'s inferred classes equal to the measured ones ('unknown' wrong). "
+          "m_overall per mission and paired improvements with 95% bootstrap CIs.")
+    def ci(v: tuple, unit: str = "") -> str:
+        return f"{_f(v[0])}{unit} [{_f(v[1])}, {_f(v[2])}]"
+
+    nan3 = (math.nan,) * 3
+    rows = [[r["source"], _pct(r["relevance"]), _pct(r["target"]), _pct(r["cost"])]
+            + [ci(r["planners"].get(p, nan3)) for p in planners]
+            + [ci(r["improvement"].get(b, nan3), "%") for b in baselines] + [r["delivered"].get(reference, "–")]
+            for r in [model] + [r for _, r in sweep]]
+    doc.table(["input source", "relevance", "target", "cost class"] + [f"{plots.label(p)} m_overall [CI]" for p in planners]
+              + [f"{plots.label(reference)} vs {plots.label(b)} [CI]" for b in baselines]
+              + [f"{plots.label(reference)} delivered"], rows)
+    where = {k: capability.equivalent_error(model[k], [(e, r[k]) for e, r in sweep]) for k in ("relevance", "cost")}
+    sent = []
+    for k, name in (("relevance", "object relevance"), ("cost", "cost classes")):
+        e = where[k]
+        worst = max(e for e, _ in sweep)
+        sent.append(f"its accuracy on {name} ({_pct(model[k])}) is that of an oracle with error {e:.2f}" if e is not None
+                    else f"its accuracy on {name} ({_pct(model[k])}) lies outside the swept oracles' range "
+                    f"({'worse than error ' + format(worst, 'g') if model[k] < min(r[k] for _, r in sweep) else 'better than the best oracle swept'})")
+    doc.p(f"On this axis, {model['source']} sits where " + "; ".join(sent) + ".")
+    for b in baselines:
+        pays = capability.largest_paying_error([(e, *r["improvement"].get(b, nan3)[1:]) for e, r in sweep])
+        doc.p(f"{plots.label(reference)} over {plots.label(b)}: " + (
+            f"the paired improvement's CI lies above 0 at every swept oracle error up to {pays:g}."
+            if pays is not None else "the paired improvement's CI does not lie above 0 even with the oracle at the "
+                                     "smallest swept error."))
+    f = plots.capability_figure(sweep, model, where, planners, reference, fig_dir / "capability.png")
+    figures.append(f)
+    doc.img(f, "m_overall and paired improvements against oracle error; the model at its equivalent error")
+
+
 def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, runs_dir: str | os.PathLike,
                  out_dir: str | os.PathLike, cfg: Any = None,
                  temperature_results: Sequence[tuple[str, str | os.PathLike]] = (),
                  m_results: Sequence[tuple[str, str | os.PathLike]] = (),
                  reference: str = "inter_llm",
-                 estimate_results: Sequence[tuple[str, str | os.PathLike]] = ()) -> dict[str, Path]:
+                 estimate_results: Sequence[tuple[str, str | os.PathLike]] = (),
+                 oracle_results: Sequence[tuple[float, str | os.PathLike]] = ()) -> dict[str, Path]:
     """Write ``out_dir/report.md``, ``out_dir/report.html`` and ``out_dir/figures/*.png``.
 
     metrics_dir: output of ``aggregate``; scenes_dir: ``data/scenes`` (topdown.png pictures);
     runs_dir: ``data/runs`` (MCAP links); cfg: ExperimentConfig or None (ε of the path-similarity
     figure = ``cfg.planner.epsilon_d``); temperature_results / m_results: (label, metrics_dir)
-    pairs of other runs (labels like "0.2" / "M=3"); folders without metrics.json are skipped.
+    pairs of other runs (labels like "0.2" / "M=3"); folders without metrics.json are skipped;
+    oracle_results: (llm.oracle_error, metrics_dir) pairs of an oracle sweep on the same missions.
     Returns {"markdown", "html", "figures"} paths.
     """
     metrics_dir, out_dir = Path(metrics_dir), Path(out_dir)
@@ -569,6 +635,7 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
                    "tokens in / mission", "tokens out / mission"], rows)
 
     _estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], reference)
+    _capability_section(doc, metrics, [(float(e), Path(d)) for e, d in oracle_results], fig_dir, reference, figures)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     md, ht = out_dir / "report.md", out_dir / "report.html"

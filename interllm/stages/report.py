@@ -15,12 +15,27 @@ from interllm.metrics.report import build_report
 def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_dir: Path,
                out_dir: Path, temperature_results: Iterable[tuple[str, Path]] = (),
                m_results: Iterable[tuple[str, Path]] = (),
-               estimate_results: Iterable[tuple[str, Path]] = ()) -> None:
+               estimate_results: Iterable[tuple[str, Path]] = (),
+               oracle_results: Iterable[tuple[float, Path]] = ()) -> None:
     """The report; ablation results are (label, metrics_dir) pairs (``find_sweep_results``,
-    ``find_estimate_results``)."""
+    ``find_estimate_results``), oracle results (llm.oracle_error, metrics_dir) pairs
+    (``find_oracle_results``)."""
     build_report(Path(metrics_dir), Path(scenes_dir), Path(runs_dir), Path(out_dir), cfg,
                  temperature_results=list(temperature_results), m_results=list(m_results),
-                 estimate_results=list(estimate_results))
+                 estimate_results=list(estimate_results), oracle_results=list(oracle_results))
+
+
+def find_oracle_results(*roots: Path) -> list[tuple[float, Path]]:
+    """Jobs of ``experiment=oracle_sweep`` multiruns under ``roots`` with metrics:
+    [(llm.oracle_error, metrics_dir)], sorted by the error."""
+    out = []
+    for root in roots:
+        for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
+            metrics = cfg_file.parent.parent / "data" / "metrics"
+            c = yaml.safe_load(cfg_file.read_text()) or {}
+            if c.get("experiment") == "oracle_sweep" and (metrics / "metrics.json").is_file():
+                out.append((float(c["llm"]["oracle_error"]), metrics))
+    return sorted(out)
 
 
 def find_estimate_results(*roots: Path) -> list[tuple[str, Path]]:
