@@ -127,6 +127,11 @@ class LLMConfig:
     constrain_names: bool = True  # enumerate valid scene-graph names in schemas
     repair_retries: int = 2  # re-asks after malformed output
     calibrate: bool = True  # score calibration against a content-free prompt
+    # score mode: the scene graph is expanded hierarchically (planning/scoring.py): the room_beam
+    # rooms, then the furniture_beam furniture in them, are the only ones whose objects are scored
+    # one by one (0: no limit; both 0: every object, whatever the house's size)
+    room_beam: int = 3
+    furniture_beam: int = 6
     max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail
     # llm=oracle: the share of the oracle's answers (relevance, target, cost class) replaced by
     # seeded random ones (interllm/planning/oracle.py); read only when llm.backend is oracle
@@ -162,6 +167,9 @@ class LLMConfig:
         _check(0 <= self.repair_retries <= 10, "llm.repair_retries", "must be in [0, 10]")
         _check(0.0 <= self.max_failure_share <= 1.0, "llm.max_failure_share",
                f"must be in [0, 1] (share of failed or unparseable LLM calls), got {self.max_failure_share}")
+        _check(0 <= self.room_beam <= 1000, "llm.room_beam", f"must be in [0, 1000] (0: every room), got {self.room_beam}")
+        _check(0 <= self.furniture_beam <= 10000, "llm.furniture_beam",
+               f"must be in [0, 10000] (0: all furniture of the expanded rooms), got {self.furniture_beam}")
         _check(0.0 <= self.oracle_error <= 1.0, "llm.oracle_error", f"must be in [0, 1], got {self.oracle_error}")
         oracle = [self.backend == "oracle", self.proposal_mode == "oracle", self.cost_inference_mode == "oracle"]
         _check(all(oracle) or not any(oracle), "llm.backend",

