@@ -11,7 +11,9 @@ the committed LLM cache in replay mode, so no model runs: the time is planning +
   arm's link frames, /joint_states, /scene updates, paths, actions, LLM calls, metrics), so the
   overhead is log / exec (goal <= 10%);
 - log (add_message): the same file written through mcap's per-message ``Writer.add_message``
-  instead of the recorder's batched path, the obvious alternative (same bytes, checked here);
+  instead of the recorder's batched path (same bytes, checked here);
+- log (foxglove-sdk): the same messages written through Foxglove's SDK
+  (``McapRecorder(writer="foxglove")``), the maintained writer the issue asks to compare with;
 - end to end: the whole mission with the McapRecorder against one with NullRecorder (noisier:
   two full runs on a shared machine).
 Also prints simulated mission time, the real-time factor, the file size and the time to replay
@@ -38,10 +40,11 @@ from omegaconf import OmegaConf  # noqa: E402
 from interllm.llm import make_client  # noqa: E402
 from interllm.planners.candidates import generate_initial_candidates  # noqa: E402
 from interllm.planners.runner import run_mission  # noqa: E402
-from interllm.record import McapRecorder, NullRecorder, batch, replay  # noqa: E402
+from interllm.record import McapRecorder, NullRecorder, batch, read_run, replay  # noqa: E402
 from interllm.scene import generate_missions, generate_scene  # noqa: E402
 from interllm.scene.grid import rasterize  # noqa: E402
 from interllm.sim.kinematics import RobotKinematics  # noqa: E402
+from interllm.sim.world import World  # noqa: E402
 from pipeline._hydra import compose  # noqa: E402
 
 
@@ -66,13 +69,13 @@ def _per_message(self, rows) -> None:
         self.add_message(channel_id=ch, log_time=t, data=data, publish_time=t, sequence=seq)
 
 
-def write(path: Path, calls, scene, grids, robot, per_message: bool = False) -> float:
+def write(path: Path, calls, scene, grids, robot, per_message: bool = False, writer: str = "mcap") -> float:
     fast = batch.BatchWriter.add_messages
     if per_message:
         batch.BatchWriter.add_messages = _per_message
     try:
         t = time.perf_counter()
-        with McapRecorder(path, scene, {"bench": "1"}, grids=grids, robot=robot) as r:
+        with McapRecorder(path, scene, {"bench": "1"}, grids=grids, robot=robot, writer=writer) as r:
             for name, args in calls:
                 getattr(r, name)(*args)
         return time.perf_counter() - t
@@ -93,29 +96,34 @@ def main() -> None:
     cands = generate_initial_candidates(scene, mission, client, cfg)
     grids = {k: rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, k) for k in ("presumed", "true")}
     robot = RobotKinematics(cfg.sim)
+    world = World(scene, cfg.sim, cfg.scene.grid_resolution, grids)
     print(f"scene {scene.id}, mission {mission.id} ({len(mission.commands)} commands), replayed LLM cache")
     print(f"{'planner':<11}{'actions':>8}{'samples':>8}{'sim [s]':>9}{'exec [s]':>9}{'log [s]':>9}"
-          f"{'overhead':>9}{'add_message':>12}{'overhead':>9}{'end-to-end':>11}{'x real time':>12}{'MB':>6}{'replay [s]':>11}")
+          f"{'overhead':>9}{'add_message':>12}{'overhead':>9}{'foxglove-sdk':>13}{'overhead':>9}{'end-to-end':>11}"
+          f"{'x real time':>12}{'MB':>6}{'replay [s]':>11}")
     with tempfile.TemporaryDirectory() as tmp:
         for planner in cfg.planner.names:
-            best = {"exec": float("inf"), "log": float("inf"), "slow": float("inf"), "null": float("inf"),
-                    "mcap": float("inf")}
+            best = {"exec": float("inf"), "log": float("inf"), "slow": float("inf"), "sdk": float("inf"),
+                    "null": float("inf"), "mcap": float("inf")}
             for i in range(args.repeats):
                 cl = CallLog()
                 t = time.perf_counter()
-                rec = run_mission(planner, scene, mission, cands, client, cfg, cl)
+                rec = run_mission(planner, world, mission, cands, client, cfg, cl).to_dict()
                 best["exec"] = min(best["exec"], time.perf_counter() - t)
                 fast_path, slow_path = Path(tmp) / f"{planner}_{i}.mcap", Path(tmp) / f"{planner}_{i}_slow.mcap"
                 best["log"] = min(best["log"], write(fast_path, cl.calls, scene, grids, robot))
                 best["slow"] = min(best["slow"], write(slow_path, cl.calls, scene, grids, robot, per_message=True))
                 assert fast_path.read_bytes() == slow_path.read_bytes(), "batched and per-message files differ"
+                sdk_path = Path(tmp) / f"{planner}_{i}_sdk.mcap"
+                best["sdk"] = min(best["sdk"], write(sdk_path, cl.calls, scene, grids, robot, writer="foxglove"))
+                assert len(read_run(sdk_path).actions) == len(read_run(fast_path).actions), "the writers differ"
                 t = time.perf_counter()
-                run_mission(planner, scene, mission, cands, client, cfg, NullRecorder())
+                run_mission(planner, world, mission, cands, client, cfg, NullRecorder())
                 best["null"] = min(best["null"], time.perf_counter() - t)
                 t = time.perf_counter()
                 with McapRecorder(Path(tmp) / f"{planner}_e2e.mcap", scene, {"bench": "1"}, grids=grids,
                                   robot=robot) as r:
-                    run_mission(planner, scene, mission, cands, client, cfg, r)
+                    run_mission(planner, world, mission, cands, client, cfg, r)
                 best["mcap"] = min(best["mcap"], time.perf_counter() - t)
             n = sum(len(c["actions"]) for c in rec["commands"])
             samples = sum(a[0].trajectory.t.size for name, a in cl.calls if name == "action" and a[0].trajectory)
@@ -125,6 +133,7 @@ def main() -> None:
             t_replay = time.perf_counter() - t
             print(f"{planner:<11}{n:>8}{samples:>8}{rec['sim_time']:>9.1f}{best['exec']:>9.2f}{best['log']:>9.3f}"
                   f"{best['log'] / best['exec']:>9.1%}{best['slow']:>12.3f}{best['slow'] / best['exec']:>9.1%}"
+                  f"{best['sdk']:>13.3f}{best['sdk'] / best['exec']:>9.1%}"
                   f"{(best['mcap'] - best['null']) / best['null']:>11.1%}{rec['sim_time'] / best['exec']:>12.0f}"
                   f"{size:>6.2f}{t_replay:>11.2f}")
     client.close()

@@ -132,3 +132,28 @@ def test_answers_do_not_depend_on_the_thread_count(backend, tmp_path):
         if be is not backend:
             be.close()
     assert answers[0] == answers[1]
+
+
+def test_score_groups_split_by_count_and_tokens():
+    from interllm.llm.embedded import score_groups
+
+    assert score_groups([3, 3, 3, 3, 3], 2, 100) == [range(0, 2), range(2, 4), range(4, 5)]
+    assert score_groups([5, 5, 5], 10, 10) == [range(0, 2), range(2, 3)]  # 15 tokens > 10: a new group
+    assert score_groups([], 4, 10) == []
+    with pytest.raises(ValueError, match="n_batch"):
+        score_groups([3, 11], 4, 10)
+
+
+def test_batched_scores_are_a_function_of_the_request(backend):
+    """More continuations than one batch holds (two groups): the same request gives bit-identical
+    scores after unrelated calls, and each agrees with decoding that continuation alone."""
+    from interllm.llm import embedded
+
+    prompt = "Request: Set up breakfast on the dining table.\nUseful item and where it is:"
+    conts = [f" item {i} on the table" for i in range(embedded.SCORE_SEQS + 5)]
+    first = backend.score(prompt, conts)
+    backend.score("Something else entirely.", [" a", " b", " c"])
+    again = backend.score(prompt, conts)
+    assert again.raw == first.raw
+    alone = backend.score(prompt, [conts[-1]])  # decoded in a group of one
+    assert abs(alone.raw[0] - first.raw[-1]) < 0.15

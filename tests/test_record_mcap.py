@@ -19,10 +19,11 @@ from interllm.record import ACTION_SCHEMA, McapRecorder, read_run
 N, S = 6, 40  # actions, samples per trajectory
 
 
-@pytest.fixture(scope="module")
-def run_file(tmp_path_factory):
-    path = tmp_path_factory.mktemp("rec") / "m000.mcap"
-    acts, extra = write_run(path, N, S)
+@pytest.fixture(scope="module", params=["mcap", "foxglove"])
+def run_file(tmp_path_factory, request):
+    """The same run written by each writer (the mcap package's, or Foxglove's SDK)."""
+    path = tmp_path_factory.mktemp(f"rec_{request.param}") / "m000.mcap"
+    acts, extra = write_run(path, N, S, writer=request.param)
     return path, acts, extra
 
 
@@ -152,15 +153,17 @@ def test_scene_update_cubes_by_hand(run_file):
     assert g.column_count * (len(g.data) // g.row_stride) == len(g.data)
 
 
-def test_deterministic_bytes(tmp_path):
-    write_run(tmp_path / "a.mcap", 3, 20)
-    write_run(tmp_path / "b.mcap", 3, 20)
+@pytest.mark.parametrize("writer", ["mcap", "foxglove"])
+def test_deterministic_bytes(tmp_path, writer):
+    write_run(tmp_path / "a.mcap", 3, 20, writer=writer)
+    write_run(tmp_path / "b.mcap", 3, 20, writer=writer)
     assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
 
 
-def test_truncated_prefixes_read_up_to_last_complete_chunk(tmp_path):
+@pytest.mark.parametrize("writer", ["mcap", "foxglove"])
+def test_truncated_prefixes_read_up_to_last_complete_chunk(tmp_path, writer):
     path = tmp_path / "full.mcap"
-    acts, _ = write_run(path, N, S, chunk_size=2048)
+    acts, _ = write_run(path, N, S, chunk_size=2048, writer=writer)
     data = path.read_bytes()
     full = [r.to_record() for r, _ in acts]
     n_seen = []

@@ -38,6 +38,7 @@ from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME, yaw_quat_x
 from interllm.core.results import ActionResult, Trajectory
 from interllm.record.batch import BatchWriter
 from interllm.record.foxglove import grid_message, objects_update, poses_message, scene_update
+from interllm.record.sdk_writer import FoxgloveSdkWriter
 from interllm.record.topics import (
     ACTION_SCHEMA,
     ACTIONS_TOPIC,
@@ -63,6 +64,7 @@ from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
 
 COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
+WRITERS = ("mcap", "foxglove")
 
 
 class McapRecorder:
@@ -75,6 +77,8 @@ class McapRecorder:
     grids: occupancy grids by name (``/grid/<name>``), e.g. {"presumed": ..., "true": ...}.
     joint_names: arm joint names for ``/joint_states`` when a Trajectory carries none.
     chunk_size: uncompressed chunk size limit [bytes]; compression: "zstd" | "lz4" | "none".
+    writer: "mcap" (the mcap package with the batched message path, ``record/batch.py``) or
+        "foxglove" (Foxglove's SDK, ``record/sdk_writer.py``); the same messages either way.
     robot: optional robot model (``interllm.sim.kinematics.RobotKinematics`` or anything with
         ``joint_names``, ``chain`` [(parent, child)], ``link_poses(joints[N, n]) -> (xyz[N, L, 3],
         quat_xyzw[N, L, 4])`` and ``visuals()``): arm link frames on ``/tf`` and the robot's shape on
@@ -83,9 +87,12 @@ class McapRecorder:
 
     def __init__(self, path: str | os.PathLike, scene: SceneGraph, metadata: dict[str, Any] | None = None,
                  grids: dict[str, OccupancyGrid] | None = None, joint_names: Sequence[str] = (), *,
-                 chunk_size: int = 256 * 1024, compression: str = "zstd", robot: Any = None) -> None:
+                 chunk_size: int = 256 * 1024, compression: str = "zstd", robot: Any = None,
+                 writer: str = "mcap") -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression {compression!r} is not valid; choose one of {list(COMPRESSIONS)}")
+        if writer not in WRITERS:
+            raise ValueError(f"writer {writer!r} is not valid; choose one of {list(WRITERS)}")
         if chunk_size < 1024:
             raise ValueError(f"chunk_size must be >= 1024 bytes, got {chunk_size}")
         self.path = Path(path)
@@ -102,8 +109,12 @@ class McapRecorder:
         self._tf_base = FrameTransforms()  # reused for the base-only /tf messages
         self._tf_base_tr = self._tf_base.transforms.add()
         self._tf_base_tr.parent_frame_id, self._tf_base_tr.child_frame_id = WORLD_FRAME, BASE_FRAME
-        self._file = open(self.partial_path, "wb")
-        self._w = BatchWriter(self._file, chunk_size=chunk_size, compression=COMPRESSIONS[compression])
+        if writer == "foxglove":
+            self._file = None
+            self._w = FoxgloveSdkWriter(self.partial_path, chunk_size, compression)
+        else:
+            self._file = open(self.partial_path, "wb")
+            self._w = BatchWriter(self._file, chunk_size=chunk_size, compression=COMPRESSIONS[compression])
         self._w.start(profile="", library="interllm.record")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
@@ -352,9 +363,16 @@ class McapRecorder:
         self._w.add_metadata("end", {"status": status, "error": error, "n_actions": str(self._n_actions),
                                      "sim_time": repr(float(self._clock))})
         self._w.finish()
-        self._file.flush()
-        os.fsync(self._file.fileno())
-        self._file.close()
+        if self._file is not None:
+            self._file.flush()
+            os.fsync(self._file.fileno())
+            self._file.close()
+        else:  # the SDK wrote and closed the file itself
+            fd = os.open(self.partial_path, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
         os.replace(self.partial_path, self.path)
         self._closed = True
         return self.path

@@ -1,0 +1,121 @@
+"""Scale, measured: houses of 9, 30, 100 and 300 rooms, today's prompts and scoring beside the code
+before #18, in one run.
+
+    .venv/bin/python benchmarks/bench_scale.py [--rooms 9,30,100,300] [--flat-max-rooms 100]
+
+Per house size (furniture and objects grow with the rooms at the density of the ``huge`` preset;
+the paper's 9 rooms keep the paper's 26 furniture and 30 objects) and per setting, in a fresh
+process each (so the peak memory is that run's), with a cold LLM cache:
+
+- scene generation time [s];
+- prompt tokens per command (everything the embedded model evaluates: prompts, continuations,
+  calibration prompts) and LLM wall time per command [s];
+- planning + simulation time per command [s]: Inter-LLM on the mission's first command in MuJoCo
+  (world build included), less the LLM time;
+- peak resident memory [MB].
+
+Settings: ``before #18``: every object scored one by one (llm.room_beam = furniture_beam = 0, one
+continuation per decode); ``now``: the hierarchical prompts and batched scoring (the defaults).
+The flat setting is skipped above ``--flat-max-rooms`` (it scores every object of the house).
+"""
+
+from __future__ import annotations
+
+# isort: off
+import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
+# isort: on
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def house(rooms: int):
+    from interllm.scene.catalog import scene_config
+
+    if rooms <= 9:
+        return scene_config("paper", n_rooms=rooms)
+    return scene_config("huge", n_rooms=rooms, n_furniture=round(rooms * 360 / 110),
+                        n_objects=round(rooms * 2000 / 110))
+
+
+def measure(rooms: int, setting: str) -> dict:
+    """One (size, setting) in this process; returns the figures."""
+    from interllm.config import ExperimentConfig
+    from interllm.llm import embedded, make_client
+    from interllm.planners.candidates import generate_initial_candidates
+    from interllm.planners.runner import run_mission
+    from interllm.scene.generator import generate_scene
+    from interllm.scene.grid import rasterize
+    from interllm.scene.missions import generate_missions
+    from interllm.sim.world import World
+
+    cfg = ExperimentConfig()
+    if setting == "before":
+        embedded.SCORE_SEQS = 1
+        cfg.llm = replace(cfg.llm, room_beam=0, furniture_beam=0)
+    cfg.planner.names = ["inter_llm"]
+    t0 = time.perf_counter()
+    scene = generate_scene(house(rooms), 0, robot_radius=cfg.sim.robot_radius)
+    t_gen = time.perf_counter() - t0
+    mission = generate_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
+                                footprint_radius=cfg.sim.footprint_radius)[0]
+    mission = replace(mission, commands=mission.commands[:1])
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg.llm = replace(cfg.llm, cache_dir=tmp)
+        client = make_client(cfg.llm)
+        cands = generate_initial_candidates(scene, mission, client, cfg)  # the candidates stage's request
+        grids = {k: rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, k) for k in ("presumed", "true")}
+        s = client.stats
+        llm_s = s.backend_seconds
+        t1 = time.perf_counter()
+        world = World(scene, cfg.sim, cfg.scene.grid_resolution, grids)
+        run_mission("inter_llm", world, mission, cands, client, cfg)
+        t_run = time.perf_counter() - t1 - (s.backend_seconds - llm_s)
+        client.close()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return {"rooms": len(scene.rooms), "objects": len(scene.objects), "generate_s": t_gen,
+            "tokens": s.tokens_in, "llm_s": s.backend_seconds, "sim_s": t_run,
+            "calls": s.calls, "peak_mb": peak}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rooms", default="9,30,100,300")
+    ap.add_argument("--flat-max-rooms", type=int, default=100)
+    ap.add_argument("--one", nargs=2, metavar=("ROOMS", "SETTING"), help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.one:
+        print(json.dumps(measure(int(args.one[0]), args.one[1])))
+        return 0
+    print(f"{'rooms':>6}{'objects':>8}{'setting':>12}{'gen [s]':>9}{'tokens/cmd':>12}{'LLM s/cmd':>11}"
+          f"{'plan+sim s/cmd':>16}{'peak MB':>9}", flush=True)
+    for rooms in (int(r) for r in args.rooms.split(",")):
+        for setting in ("before", "now"):
+            if setting == "before" and rooms > args.flat_max_rooms:
+                print(f"{rooms:>6}{'':>8}{'before #18':>12}  skipped (--flat-max-rooms {args.flat_max_rooms})")
+                continue
+            p = subprocess.run([sys.executable, __file__, "--one", str(rooms), setting], capture_output=True,
+                               text=True, cwd=ROOT, timeout=3600)
+            if p.returncode != 0:
+                print(f"{rooms:>6} {setting}: failed: {p.stderr.strip().splitlines()[-1:]}", flush=True)
+                continue
+            r = json.loads(p.stdout.strip().splitlines()[-1])
+            name = "before #18" if setting == "before" else "now"
+            print(f"{r['rooms']:>6}{r['objects']:>8}{name:>12}{r['generate_s']:>9.2f}{r['tokens']:>12.0f}"
+                  f"{r['llm_s']:>11.2f}{r['sim_s']:>16.2f}{r['peak_mb']:>9.0f}", flush=True)
+    print("per command: one mission of the first command, Inter-LLM: the candidates stage's scoring of the command,"
+          " then its execution (no cost inference on a first command)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

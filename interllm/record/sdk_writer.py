@@ -1,0 +1,70 @@
+"""The recorder's MCAP writing through Foxglove's own SDK (``foxglove-sdk``), behind the same small
+interface as :class:`interllm.record.batch.BatchWriter` (``register_schema``, ``register_channel``,
+``add_message(s)``, ``add_metadata``, ``add_attachment``, ``flush``, ``finish``), so that
+``McapRecorder(writer="foxglove")`` and ``writer="mcap"`` write the same messages and
+``benchmarks/bench_mission.py`` can time both in one run.
+
+Each writer has a ``foxglove.Context`` of its own, so channels of one run never reach another run's
+file. Chunks are compressed on the calling thread (``compression_threads=0``), so the bytes do not
+depend on the machine's core count. The SDK numbers each channel's messages itself; the sequence
+the recorder passes is the same count.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+
+class FoxgloveSdkWriter:
+    """An MCAP file written by foxglove-sdk (module doc). path: the file; compression: "zstd" |
+    "lz4" | "none"; chunk_size: uncompressed chunk size limit [bytes]."""
+
+    def __init__(self, path: str | os.PathLike, chunk_size: int, compression: str) -> None:
+        import foxglove  # lazy: only this writer needs the SDK
+        from foxglove.mcap import MCAPCompression, MCAPWriteOptions
+
+        codec = {"zstd": MCAPCompression.Zstd, "lz4": MCAPCompression.Lz4, "none": None}[compression]
+        self._fx = foxglove
+        self._ctx = foxglove.Context()
+        self._writer = foxglove.open_mcap(path, allow_overwrite=True, context=self._ctx,
+                                          writer_options=MCAPWriteOptions(compression=codec, profile="",
+                                                                          chunk_size=chunk_size,
+                                                                          compression_threads=0))
+        self._schemas: list = []
+        self._channels: list = []
+
+    def start(self, profile: str = "", library: str = "") -> None:
+        """The SDK writes the header when the file is opened (profile "", its own library name)."""
+
+    def register_schema(self, name: str, encoding: str, data: bytes) -> int:
+        self._schemas.append(self._fx.Schema(name=name, encoding=encoding, data=data))
+        return len(self._schemas)  # MCAP schema ids start at 1
+
+    def register_channel(self, topic: str, message_encoding: str, schema_id: int) -> int:
+        self._channels.append(self._fx.Channel(topic, schema=self._schemas[schema_id - 1],
+                                               message_encoding=message_encoding, context=self._ctx))
+        return len(self._channels) - 1
+
+    def add_message(self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int) -> None:
+        self._channels[channel_id].log(data, log_time=log_time)
+
+    def add_messages(self, rows: Sequence[tuple[int, int, bytes, int]]) -> None:
+        """rows: (channel_id, log_time = publish_time [ns], data, sequence), in file order."""
+        channels = self._channels
+        for ch, t, data, _ in rows:
+            channels[ch].log(data, log_time=t)
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        self._writer.write_metadata(name, data)
+
+    def add_attachment(self, create_time: int, log_time: int, name: str, media_type: str, data: bytes) -> None:
+        self._writer.attach(log_time=log_time, create_time=create_time, name=name, media_type=media_type, data=data)
+
+    def flush(self) -> None:
+        self._writer.flush()
+
+    def finish(self) -> None:
+        for ch in self._channels:
+            ch.close()
+        self._writer.close()
