@@ -46,13 +46,26 @@ class BeliefMap:
         self._anchors: dict[str, tuple[float, float]] = {}
         self.clearance = (float(clearance[0]), float(clearance[1]))
         self.presumed = presumed.copy()
-        self.search = GridSearch(self.presumed, clearance_cost=self.clearance[0], clearance_band=self.clearance[1])
+        # the initial map's search graph and distance fields, kept for every mission of the world
+        self._prior = GridSearch(presumed.copy(), clearance_cost=self.clearance[0], clearance_band=self.clearance[1])
+        self._learned_search: Optional[GridSearch] = None
         self.learned = 0  # cells blocked since the last reset
+
+    @property
+    def search(self) -> GridSearch:
+        """Path search on the current presumed map: the initial map's (shared, with its cached distance
+        fields) until a collision blocks cells, then one over the changed map."""
+        if not self.learned:
+            return self._prior
+        if self._learned_search is None:
+            self._learned_search = GridSearch(self.presumed, clearance_cost=self.clearance[0],
+                                              clearance_band=self.clearance[1])
+        return self._learned_search
 
     def reset(self) -> None:
         """The initial presumed map again (a new mission, or a navigate without a persistent map)."""
         self.presumed = self.initial.copy()
-        self.search = GridSearch(self.presumed, clearance_cost=self.clearance[0], clearance_band=self.clearance[1])
+        self._learned_search = None
         self.learned = 0
 
     def forget(self) -> None:

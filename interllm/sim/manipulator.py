@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 import mink
@@ -84,6 +84,20 @@ class LocalIK:
     object_geoms: dict[str, int]
     structure_geoms: list[int]  # walls and door leaves (reach protocol; else empty)
     support_geom: int  # the furniture the action is at (the surface the arm works on)
+    _limits: dict = field(default_factory=dict, repr=False)  # avoid geoms -> IK limits (``limits``)
+
+    def limits(self, avoid: Sequence[int]) -> list:
+        """The IK limits against ``avoid``: joint limits, and collision avoidance of the arm against
+        those geoms (built once per set of geoms: building them costs as much as a few solves)."""
+        key = tuple(avoid)
+        if key not in self._limits:
+            limits = [mink.ConfigurationLimit(self.model)]
+            if key:
+                limits.append(mink.CollisionAvoidanceLimit(self.model, [(self.arm_geoms, list(key))],
+                                                           minimum_distance_from_collisions=0.005,
+                                                           collision_detection_distance=0.08))
+            self._limits[key] = limits
+        return self._limits[key]
 
     def obstacles(self, but: tuple[str, ...] = ()) -> list[int]:
         """Every geom the arm must not touch: furniture, walls, doors, objects other than ``but``."""
@@ -158,11 +172,7 @@ def solve_ik(ik: LocalIK, q0: np.ndarray, target_pos: np.ndarray, target_rot: np
                                                            np.asarray(target_pos, dtype=float)))
     posture = mink.PostureTask(ik.model, cost=1e-3)
     posture.set_target(TUCK)
-    limits = [mink.ConfigurationLimit(ik.model)]
-    if avoid:
-        limits.append(mink.CollisionAvoidanceLimit(ik.model, [(ik.arm_geoms, avoid)],
-                                                   minimum_distance_from_collisions=0.005,
-                                                   collision_detection_distance=0.08))
+    limits = ik.limits(avoid)
     best = math.inf
     since = 0
     reason = "ik_no_convergence"
@@ -221,19 +231,26 @@ def arm_clearance(ik: LocalIK, q: np.ndarray, obstacles: Sequence[int], within: 
     """[m] the smallest distance between the arm and an obstacle at arm configuration q, capped at
     ``within``: ``mj_geomDistance`` over the pairs whose bounding spheres come within ``within``
     (MuJoCo's contact margins miss box-box pairs, so they are not used here)."""
-    conf = ik.configuration
-    conf.update(q)
-    model, data = ik.model, conf.data
-    arm = np.asarray(ik.arm_geoms)
-    obs = np.asarray(obstacles, dtype=int)
-    if obs.size == 0:
-        return within
-    gap = np.linalg.norm(data.geom_xpos[arm][:, None, :] - data.geom_xpos[obs][None, :, :], axis=2) \
-        - model.geom_rbound[arm][:, None] - model.geom_rbound[obs][None, :]
-    best = within
-    for a, o in zip(*np.nonzero(gap < within), strict=True):
-        best = min(best, mujoco.mj_geomDistance(model, data, int(arm[a]), int(obs[o]), within, None))
-    return max(float(best), 0.0)
+    return _clearances(ik, [q], obstacles, within)[0]
+
+
+def _clearances(ik: LocalIK, qs: Sequence[np.ndarray], obstacles: Sequence[int], within: float) -> list[float]:
+    """``arm_clearance`` at each configuration of ``qs`` (the geom arrays are set up once)."""
+    if len(obstacles) == 0:
+        return [within] * len(qs)
+    conf, model = ik.configuration, ik.model
+    arm, obs = np.asarray(ik.arm_geoms), np.asarray(obstacles, dtype=int)
+    reach = model.geom_rbound[arm][:, None] + model.geom_rbound[obs][None, :] + within
+    out = []
+    for q in qs:
+        conf.update(q)
+        xpos = conf.data.geom_xpos
+        near = np.linalg.norm(xpos[arm][:, None, :] - xpos[obs][None, :, :], axis=2) < reach
+        best = within
+        for a, o in zip(*np.nonzero(near), strict=True):
+            best = min(best, mujoco.mj_geomDistance(model, conf.data, int(arm[a]), int(obs[o]), within, None))
+        out.append(max(float(best), 0.0))
+    return out
 
 
 def arm_motion_time(cfg: SimConfig, ik: LocalIK, q_from: np.ndarray, q_to: np.ndarray,
@@ -244,12 +261,10 @@ def arm_motion_time(cfg: SimConfig, ik: LocalIK, q_from: np.ndarray, q_to: np.nd
     if cfg.arm_slow_distance <= 0 or length == 0.0:
         return length / cfg.joint_speed
     n = max(1, math.ceil(length / ARM_SAMPLE_STEP))
+    qs = [q_from + (q_to - q_from) * ((i + 0.5) / n) for i in range(n)]
     t = 0.0
-    for i in range(n):
-        q = q_from + (q_to - q_from) * ((i + 0.5) / n)
-        d = arm_clearance(ik, q, obstacles, cfg.arm_slow_distance)
-        speed = cfg.joint_speed * max(cfg.arm_min_speed, d / cfg.arm_slow_distance)
-        t += (length / n) / speed
+    for d in _clearances(ik, qs, obstacles, cfg.arm_slow_distance):
+        t += (length / n) / (cfg.joint_speed * max(cfg.arm_min_speed, d / cfg.arm_slow_distance))
     return t
 
 
