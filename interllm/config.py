@@ -229,7 +229,7 @@ class SimConfig:
     n_l: int = 5  # sampled base poses per manipulation (paper's N_l)
     pose_protocol: str = "reach"  # how the N_l base poses are drawn: one of POSE_PROTOCOLS (sim/base_poses.py)
     pose_reach: float = 0.8  # [m] reach protocol: base centres at most this far (horizontal) from the target
-    pose_margin: float = 0.03  # [m] reach protocol: candidates this far beyond the arm's reach at the target height
+    pose_margin: float = 0.025  # [m] reach protocol: candidates this far beyond the arm's reach at the target height
     ik_max_iters: int = 150
     ik_tol: float = 0.015  # [m] position tolerance of IK convergence
     ik_dt: float = 0.05  # [s] IK integration step

@@ -141,6 +141,17 @@ def path_similarity_figure(path: str | os.PathLike, eps: float = 1.0) -> tuple[O
     return _save(fig, path), note
 
 
+def _curve_and_star(ax, xs, vals, star, x_star, name: str, col) -> None:
+    """One sweep curve with its CI band (vals: [n, 3] mean, lo, hi) and, at ``x_star``, the model's
+    value with its CI as a star (``star``: (mean, lo, hi) or None)."""
+    line = ax.plot(xs, vals[:, 0], marker="o", label=name, color=col)[0]
+    ax.fill_between(xs, vals[:, 1], vals[:, 2], alpha=0.15, color=line.get_color())
+    if x_star is not None and star is not None:
+        m, lo, hi = star
+        ax.errorbar([x_star], [m], yerr=[[m - lo], [hi - m]], marker="*", markersize=12, capsize=3,
+                    color=line.get_color(), linestyle="none")
+
+
 def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: list[str], reference: str,
                       path: str | os.PathLike) -> Path:
     """The LLM-capability axis. Left: m_overall per mission [CI] of each planner against the oracle's
@@ -152,26 +163,17 @@ def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: lis
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
     xs = np.array([e for e, _ in sweep])
     x_model = where.get("relevance")
+    nan3 = (np.nan,) * 3
     for p in planners:
-        vals = np.array([r["planners"].get(p, (np.nan,) * 3) for _, r in sweep], dtype=float)
-        line = ax1.plot(xs, vals[:, 0], marker="o", label=f"{label(p)} (oracle)", color=color(p))[0]
-        ax1.fill_between(xs, vals[:, 1], vals[:, 2], alpha=0.15, color=line.get_color())
-        if x_model is not None and p in model["planners"]:
-            m, lo, hi = model["planners"][p]
-            ax1.errorbar([x_model], [m], yerr=[[m - lo], [hi - m]], marker="*", markersize=12, capsize=3,
-                         color=line.get_color(), linestyle="none")
+        vals = np.array([r["planners"].get(p, nan3) for _, r in sweep], dtype=float)
+        _curve_and_star(ax1, xs, vals, model["planners"].get(p), x_model, f"{label(p)} (oracle)", color(p))
     ax1.set_xlabel("oracle error (share of random answers)")
     ax1.set_ylabel("m_overall per mission (lower is better)")
     ax1.set_title(f"stars: {model['source']} at its relevance-equivalent error", fontsize=9)
     ax1.legend(fontsize=8)
     for b in [p for p in planners if p != reference]:
-        vals = np.array([r["improvement"].get(b, (np.nan,) * 3) for _, r in sweep], dtype=float)
-        line = ax2.plot(xs, vals[:, 0], marker="o", label=f"vs {label(b)}", color=color(b))[0]
-        ax2.fill_between(xs, vals[:, 1], vals[:, 2], alpha=0.15, color=line.get_color())
-        if x_model is not None and b in model["improvement"]:
-            m, lo, hi = model["improvement"][b]
-            ax2.errorbar([x_model], [m], yerr=[[m - lo], [hi - m]], marker="*", markersize=12, capsize=3,
-                         color=line.get_color(), linestyle="none")
+        vals = np.array([r["improvement"].get(b, nan3) for _, r in sweep], dtype=float)
+        _curve_and_star(ax2, xs, vals, model["improvement"].get(b), x_model, f"vs {label(b)}", color(b))
     ax2.axhline(0.0, color="black", linewidth=0.8)
     ax2.set_xlabel("oracle error (share of random answers)")
     ax2.set_ylabel(f"{label(reference)} improvement in m_overall [%]")

@@ -25,30 +25,29 @@ def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_
                  estimate_results=list(estimate_results), oracle_results=list(oracle_results))
 
 
-def find_oracle_results(*roots: Path) -> list[tuple[float, Path]]:
-    """Jobs of ``experiment=oracle_sweep`` multiruns under ``roots`` with metrics:
-    [(llm.oracle_error, metrics_dir)], sorted by the error."""
+def _jobs(roots: Iterable[Path], experiment: str) -> list[tuple[dict, Path]]:
+    """(the job's .hydra/config.yaml, its metrics dir) of every ``experiment`` job under ``roots``
+    that produced metrics.json."""
     out = []
     for root in roots:
         for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
             metrics = cfg_file.parent.parent / "data" / "metrics"
             c = yaml.safe_load(cfg_file.read_text()) or {}
-            if c.get("experiment") == "oracle_sweep" and (metrics / "metrics.json").is_file():
-                out.append((float(c["llm"]["oracle_error"]), metrics))
-    return sorted(out)
+            if c.get("experiment") == experiment and (metrics / "metrics.json").is_file():
+                out.append((c, metrics))
+    return out
+
+
+def find_oracle_results(*roots: Path) -> list[tuple[float, Path]]:
+    """Jobs of ``experiment=oracle_sweep`` multiruns under ``roots`` with metrics:
+    [(llm.oracle_error, metrics_dir)], sorted by the error."""
+    return sorted((float(c["llm"]["oracle_error"]), m) for c, m in _jobs(roots, "oracle_sweep"))
 
 
 def find_estimate_results(*roots: Path) -> list[tuple[str, Path]]:
     """Jobs of ``experiment=estimate_comparison`` multiruns under ``roots`` with metrics:
     [(planner.nav_estimate, metrics_dir)], sorted by the variant's name."""
-    out = []
-    for root in roots:
-        for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
-            metrics = cfg_file.parent.parent / "data" / "metrics"
-            c = yaml.safe_load(cfg_file.read_text()) or {}
-            if c.get("experiment") == "estimate_comparison" and (metrics / "metrics.json").is_file():
-                out.append((str(c["planner"]["nav_estimate"]), metrics))
-    return sorted(out)
+    return sorted((str(c["planner"]["nav_estimate"]), m) for c, m in _jobs(roots, "estimate_comparison"))
 
 
 def find_sweep_results(*roots: Path) -> tuple[list[tuple[str, Path]], list[tuple[str, Path]]]:
