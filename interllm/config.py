@@ -183,7 +183,7 @@ class PlannerConfig:
     names: list[str] = field(default_factory=lambda: ["inter_llm", "sayplan", "moma_llm"])  # registered planners to run
     M: int = 3  # plan candidates per command
     max_regenerations: int = 3  # feasibility-repair rounds per candidate (bounded loop)
-    nav_estimate: str = "paper_sum"  # one of NAV_ESTIMATES
+    nav_estimate: str = "prior"  # one of NAV_ESTIMATES (paper_sum: the paper's equation)
     epsilon_d: float = 1.0  # [m] path-overlap distance scale of P°
     moma_max_replans: int = 3  # MoMa-LLM replans after execution failures, per command
     sayplan_max_iterations: int = 3  # SayPlan symbolic-simulator replanning rounds

@@ -24,7 +24,7 @@ def _snapshot(w: World) -> tuple:
 
 
 def _kitchen_at_counter() -> World:
-    w = World(kitchen(), SimConfig())
+    w = World(kitchen(), SimConfig(pose_margin=0.05))  # poses on both sides of the reach edge: graded
     w.reset(Mission("m", "kitchen", (1.0, 1.0, 0.0), "counter_1", ()))
     assert w.execute(Action("navigate", "counter_1", room="k")).success  # ends at the counter's anchor
     assert w.robot_pose[:2] == pytest.approx(w.anchor("counter_1"))

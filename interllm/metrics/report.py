@@ -296,36 +296,56 @@ def _claims_section(doc: _Doc, metrics: Mapping, metrics_dir: Path,
                   f"{v['n_pairs']} pairs here)" for b, v in sorted(need.items())) + ".")
 
 
-def _estimates_section(doc: _Doc, metrics_dir: Path, variants: Sequence[tuple[str, Path]], reference: str) -> None:
-    """Each cost-estimate variant's m_overall beside this run's (``planner.nav_estimate`` of this run),
-    paired over the missions both ran."""
-    got = [(lab, d) for lab, d in variants if (d / "per_mission.csv").is_file()]
+def _paired(base_dir: Path, other_dir: Path, planner: str, label: str) -> tuple[int, float, float, float]:
+    """(pairs, % reduction of ``planner``'s m_overall in ``other_dir`` against ``base_dir``, CI lo, hi),
+    paired over the (scene, mission) both ran (per_mission.csv)."""
+    def per_mission(d: Path) -> dict:
+        return {(r["scene"], r["mission"]): float(r["m_overall"])
+                for r in read_csv(d / "per_mission.csv") if r["planner"] == planner}
+
+    base, other = per_mission(base_dir), per_mission(other_dir)
+    keys = sorted(k for k in base if k in other)
+    pct, lo, hi = paired_improvement([other[k] for k in keys], [base[k] for k in keys],
+                                     seed=bootstrap_seed(0, label))
+    return len(keys), pct, lo, hi
+
+
+def _estimates_section(doc: _Doc, metrics_dir: Path, variants: Sequence[tuple[str, Path]], reference: str,
+                       current: str) -> None:
+    """Each cost-estimate variant's m_overall beside this run's (``planner.nav_estimate`` = ``current``),
+    paired over the missions both ran, and which the default should be."""
+    got = [(lab, d) for lab, d in variants if (d / "per_mission.csv").is_file() and lab != current]
     if not got:
         return
-    base = [r for r in read_csv(metrics_dir / "per_mission.csv") if r["planner"] == reference]
     doc.h(2, "Cost-estimate variants (planner.nav_estimate)")
-    doc.p(f"{plots.label(reference)} with each variant on the same missions as this run (paper_sum, the paper's "
-          f"equation); improvement = paired reduction of m_overall against paper_sum, 95% bootstrap CI.")
-    rows, better = [], []
+    doc.p(f"{plots.label(reference)} with each variant on the same missions as this run ({current}; paper_sum is "
+          f"the paper's equation); change = paired reduction of m_overall against {current} (positive: the "
+          f"variant is cheaper), 95% bootstrap CI.")
+    this = read_json(metrics_dir / "metrics.json")["planners"].get(reference, {})
+
+    def row(lab: str, m: Mapping, change: str, n_pairs: str) -> list[str]:
+        return [lab, n_pairs, f"{_f(m.get('m_overall'))} [{_f(m.get('m_overall_ci_lo'))}, {_f(m.get('m_overall_ci_hi'))}]",
+                f"{m.get('n_fulfilled')}/{m.get('n_objects')}", _f(m.get("cc"), 2), change]
+
+    rows, better, worse = [row(f"{current} (this run)", this, "–", "–")], [], []
     for lab, d in got:
-        var = [r for r in read_csv(d / "per_mission.csv") if r["planner"] == reference]
-        pairs = {(r["scene"], r["mission"]): float(r["m_overall"]) for r in var}
-        keys = sorted(k for k in ((r["scene"], r["mission"]) for r in base) if k in pairs)
-        ref_of = {(r["scene"], r["mission"]): float(r["m_overall"]) for r in base}
-        pct, lo, hi = paired_improvement([pairs[k] for k in keys], [ref_of[k] for k in keys],
-                                         seed=bootstrap_seed(0, f"estimate:{lab}"))
-        m = read_json(d / "metrics.json")["planners"].get(reference, {})
-        rows.append([lab, str(len(keys)), f"{_f(m.get('m_overall'))} [{_f(m.get('m_overall_ci_lo'))}, "
-                     f"{_f(m.get('m_overall_ci_hi'))}]", f"{m.get('n_fulfilled')}/{m.get('n_objects')}",
-                     _f(m.get("cc"), 2), f"{_f(pct)}% [{_f(lo)}, {_f(hi)}]"])
+        n_pairs, pct, lo, hi = _paired(metrics_dir, d, reference, f"estimate:{lab}")
+        rows.append(row(lab, read_json(d / "metrics.json")["planners"].get(reference, {}),
+                        f"{_f(pct)}% [{_f(lo)}, {_f(hi)}]", str(n_pairs)))
         if math.isfinite(lo) and lo > 0:
             better.append((lo, lab))
+        elif math.isfinite(hi) and hi < 0:
+            worse.append(lab)
     doc.table(["variant", "pairs", "m_overall / mission [CI]", "delivered", "cc / mission",
-               "improvement over paper_sum [CI]"], rows)
-    doc.p(f"{max(better)[1]} improves on paper_sum (its paired CI lies above 0): it should be the default, with the "
-          f"paper's form one flag away." if better else
-          "No variant's paired CI lies above 0, so none can be told better than the paper's form: paper_sum stays "
-          "the default.")
+               f"reduction vs {current} [CI]"], rows)
+    if better:
+        doc.p(f"{max(better)[1]} improves on {current} (its paired CI lies above 0): it should be the default, with "
+              f"the paper's form (paper_sum) one flag away.")
+    elif len(worse) == len(got):
+        doc.p(f"Every other variant costs more than {current} (their paired CIs lie below 0): {current} stays the "
+              f"default, with the paper's form (paper_sum) one flag away.")
+    else:
+        doc.p(f"No variant's paired CI lies above 0, so none can be told better than {current}: it stays the default.")
 
 
 def _manipulation_section(doc: _Doc, summary: Mapping, attributes_csv: Path) -> None:
@@ -625,16 +645,22 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     got = _gather(m_results)
     if got:
         doc.h(2, "Ablation over M (plan candidates)")
+        base_lab, base_dir = next(((lab, d) for lab, d, _ in got if lab == "M=3"), (got[0][0], got[0][1]))
+        doc.p(f"Paired against {base_lab} on the same missions: reduction of m_overall, 95% bootstrap CI.")
         rows = []
-        for lab, _, mj in got:
+        for lab, d_dir, mj in got:
             d = mj.get("planners", {}).get(reference, {})
+            n_pairs, pct, lo, hi = _paired(base_dir, d_dir, reference, f"M:{lab}")
             rows.append([lab, f"{_f(d.get('m_overall'))} [{_f(d.get('m_overall_ci_lo'))}, "
-                              f"{_f(d.get('m_overall_ci_hi'))}]", _f(d.get("llm_calls_per_mission")),
+                              f"{_f(d.get('m_overall_ci_hi'))}]",
+                         "–" if lab == base_lab else f"{_f(pct)}% [{_f(lo)}, {_f(hi)}] ({n_pairs} pairs)",
+                         _f(d.get("llm_calls_per_mission")),
                          _f(d.get("llm_tokens_in_per_mission"), 0), _f(d.get("llm_tokens_out_per_mission"), 0)])
-        doc.table(["M", f"{plots.label(reference)} m_overall / mission [CI]", "LLM calls / mission",
-                   "tokens in / mission", "tokens out / mission"], rows)
+        doc.table(["M", f"{plots.label(reference)} m_overall / mission [CI]", f"reduction vs {base_lab} [CI]",
+                   "LLM calls / mission", "tokens in / mission", "tokens out / mission"], rows)
 
-    _estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], reference)
+    _estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], reference,
+                       cfg.planner.nav_estimate if cfg is not None else "this run's estimate")
     _capability_section(doc, metrics, [(float(e), Path(d)) for e, d in oracle_results], fig_dir, reference, figures)
 
     out_dir.mkdir(parents=True, exist_ok=True)
