@@ -42,24 +42,40 @@ def test_the_hierarchy_expands_the_best_rooms_then_their_best_furniture():
     assert "laptop_1" in scoring.expanded_objects(s, {**cats, "laptop": 9.0}, rooms, 1, 1)
 
 
-def _instance_requests(size: str) -> list[int]:
-    """Continuations of each instance-scoring request over the first mission's commands."""
+def _requests(size: str, cfg=None) -> tuple[list[int], int]:
+    """(continuations of each instance-scoring request, characters the model reads per command:
+    prompts, calibration prompts, continuations) over the first mission's commands."""
     scene = generate_scene(scene_config(size), 0)
-    cfg = ExperimentConfig()
+    cfg = cfg or ExperimentConfig()
     client = FakeScoreClient()
-    sizes = []
+    sizes, chars = [], 0
     original = client.score
 
     def spy(req):
+        nonlocal chars
         if req.purpose == "score_instances":
             sizes.append(len(req.continuations))
+        chars += len(req.prompt) + len(req.calibration_prompt or "") + 2 * sum(len(c) for c in req.continuations)
         return original(req)
 
     client.score = spy
-    for cmd in generate_missions(scene, cfg.mission)[0].commands:
+    commands = generate_missions(scene, cfg.mission)[0].commands
+    for cmd in commands:
         scores = scoring.score_command(client, scene, cmd, cfg.llm)
         assert set(scores.instances) == set(scene.objects)  # every object keeps a score
-    return sizes
+    return sizes, chars // len(commands)
+
+
+def _instance_requests(size: str) -> list[int]:
+    return _requests(size)[0]
+
+
+def test_what_the_model_reads_per_command_on_huge_is_at_most_twice_the_paper_house():
+    paper, huge = _requests("paper")[1], _requests("huge")[1]
+    assert huge <= 2 * paper, (paper, huge)
+    flat = ExperimentConfig()
+    flat.llm.room_beam = flat.llm.furniture_beam = 0  # every object scored: the code before #18
+    assert _requests("huge", flat)[1] > 20 * paper
 
 
 @pytest.mark.parametrize("size", ["paper", "large", "huge"])
