@@ -133,15 +133,16 @@ def test_the_oracle_is_never_mixed_with_a_model():
 
 
 def test_equivalent_error_and_where_the_look_ahead_stops_paying():
-    from interllm.metrics.capability import equivalent_error, largest_paying_error
+    from interllm.metrics.capability import equivalent_error, paying_errors
 
     sweep = [(0.0, 1.0), (0.1, 0.95), (0.25, 0.87), (0.5, 0.75)]
     assert equivalent_error(0.91, sweep) == pytest.approx(0.175)  # halfway between 0.95 and 0.87
     assert equivalent_error(1.0, sweep) == 0.0
     assert equivalent_error(0.6, sweep) is None and equivalent_error(0.9, sweep[:1]) is None
-    # CI lower bounds above 0 up to 0.1, not at 0.25: the look-ahead pays up to 0.1
-    assert largest_paying_error([(0.0, 2.0, 9.0), (0.1, 0.5, 6.0), (0.25, -1.0, 4.0), (0.5, 1.0, 3.0)]) == 0.1
-    assert largest_paying_error([(0.0, -0.1, 5.0)]) is None
+    # CI lower bounds above 0 at 0, 0.1 and 0.5, not at 0.25
+    assert paying_errors([(0.5, 1.0, 3.0), (0.0, 2.0, 9.0), (0.1, 0.5, 6.0), (0.25, -1.0, 4.0)]) == \
+        ([0.0, 0.1, 0.5], [0.25])
+    assert paying_errors([(0.0, -0.1, 5.0)]) == ([], [0.0])
 
 
 def test_answer_accuracy_counts_relevant_objects_and_right_targets():

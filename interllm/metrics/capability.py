@@ -58,12 +58,8 @@ def equivalent_error(accuracy: float, sweep: Sequence[tuple[float, float]]) -> O
     return None
 
 
-def largest_paying_error(points: Sequence[tuple[float, float, float]]) -> Optional[float]:
-    """The largest oracle error up to which Inter-LLM's paired improvement CI lies above 0 at every
-    swept error (points: (error, ci_lo, ci_hi)); None when it does not even at the smallest."""
-    best = None
-    for e, lo, _ in sorted(points):
-        if not (math.isfinite(lo) and lo > 0):
-            break
-        best = e
-    return best
+def paying_errors(points: Sequence[tuple[float, float, float]]) -> tuple[list[float], list[float]]:
+    """(the swept errors at which the reference planner's paired improvement CI lies above 0, those
+    at which it does not); points: (error, ci_lo, ci_hi)."""
+    above = [e for e, lo, _ in sorted(points) if math.isfinite(lo) and lo > 0]
+    return above, [e for e, _, _ in sorted(points) if e not in above]

@@ -395,6 +395,27 @@ def _source_row(metrics: Mapping, reference: str) -> dict:
                             for k, v in metrics.get("improvement", {}).items() if k.startswith(f"{reference}_vs_")}}
 
 
+def _paying_sentence(reference: str, baseline: str, sweep: Sequence[tuple[float, Mapping]]) -> str:
+    """Where on the oracle axis the reference planner's paired improvement over ``baseline`` holds, and
+    whether it grows with the quality of the answers (perfect oracle against random answers)."""
+    nan3 = (math.nan,) * 3
+    imp = {e: r["improvement"].get(baseline, nan3) for e, r in sweep}
+    above, rest = capability.paying_errors([(e, v[1], v[2]) for e, v in imp.items()])
+    best, worst = min(imp), max(imp)
+
+    def errors(es) -> str:
+        return ", ".join(format(e, "g") for e in es)
+
+    text = (f"{plots.label(reference)} over {plots.label(baseline)}: the paired improvement's CI lies above 0 at "
+            f"oracle error {errors(above) or 'none'}"
+            + (f" and includes 0 at {errors(rest)}." if rest else " (every swept error)."))
+    grows = not (above and worst in above)
+    return text + (f" From the perfect oracle (error {best:g}) to the most random answers (error {worst:g}) it goes "
+                   f"from {_f(imp[best][0])}% to {_f(imp[worst][0])}%: what {plots.label(reference)} gains over "
+                   f"{plots.label(baseline)} " + ("depends on the answers." if grows else
+                                                  "does not come from good answers."))
+
+
 def _capability_section(doc: _Doc, metrics: Mapping, oracles: Sequence[tuple[float, Path]], fig_dir: Path,
                         reference: str, figures: list) -> None:
     """The oracle sweep beside this run's model: accuracies, m_overall and paired improvements per
@@ -435,11 +456,7 @@ def _capability_section(doc: _Doc, metrics: Mapping, oracles: Sequence[tuple[flo
                     f"({'worse than error ' + format(worst, 'g') if model[k] < min(r[k] for _, r in sweep) else 'better than the best oracle swept'})")
     doc.p(f"On this axis, {model['source']} sits where " + "; ".join(sent) + ".")
     for b in baselines:
-        pays = capability.largest_paying_error([(e, *r["improvement"].get(b, nan3)[1:]) for e, r in sweep])
-        doc.p(f"{plots.label(reference)} over {plots.label(b)}: " + (
-            f"the paired improvement's CI lies above 0 at every swept oracle error up to {pays:g}."
-            if pays is not None else "the paired improvement's CI does not lie above 0 even with the oracle at the "
-                                     "smallest swept error."))
+        doc.p(_paying_sentence(reference, b, sweep))
     f = plots.capability_figure(sweep, model, where, planners, reference, fig_dir / "capability.png")
     figures.append(f)
     doc.img(f, "m_overall and paired improvements against oracle error; the model at its equivalent error")
