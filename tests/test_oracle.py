@@ -12,8 +12,8 @@ from test_planners_fakes import SymbolicWorld, tiny_mission, tiny_scene
 from interllm.config import ConfigError, ExperimentConfig, LLMConfig, from_dict
 from interllm.core.actions import Action, plan_from_list
 from interllm.metrics.compute import read_csv
-from interllm.planning.oracle import OracleCosts, oracle_scores
-from interllm.planning.proposers import make_proposer
+from interllm.planning.oracle import oracle_scores
+from interllm.planning.proposers import OracleCosts, make_proposer
 from interllm.scene.generator import generate_scene
 from interllm.scene.missions import generate_missions
 from interllm.stages.inputs import load_scene_and_missions

@@ -3,5 +3,3 @@ similarity (``similarity``), known costs (``memory``), cost estimation (``costs`
 proposes plans and cost labels (``proposers``, one implementation per mode over ``generation``
 and ``scoring``; ``oracle``: the ground-truth input source; ``text`` and ``plans`` hold the prompts'
 views and the plan format)."""
-
-from interllm.planning import oracle  # noqa: F401  (registers the oracle proposal and cost modes)

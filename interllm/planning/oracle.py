@@ -2,6 +2,8 @@
 ground truth instead of a model, so that what Inter-LLM's look-ahead does can be told apart from
 what the model knows.
 
+The modes themselves (``OraclePlans``, ``OracleCosts``) are registered in ``planning.proposers``.
+
 - **Plans** (``llm.proposal_mode=oracle``): an object is relevant to a command when its category
   is one the command's goal asks for (``Command.goal.categories``); the target furniture is the
   goal's (``Command.goal.target_furniture``). These answers become score-mode scores (relevant 0,
@@ -32,8 +34,6 @@ from interllm.core.actions import Action
 from interllm.core.results import ActionResult
 from interllm.core.seeding import derive_seed
 from interllm.planning.costs import encode_cost
-from interllm.planning.memory import KnownCosts
-from interllm.planning.proposers import COST_INFERRERS, PLAN_PROPOSERS, ScorePlans
 from interllm.planning.scoring import SemanticScores
 from interllm.scene.graph import Command, SceneGraph
 
@@ -53,15 +53,10 @@ def _draw(cfg: LLMConfig, *question: Any) -> np.random.Generator:
     return np.random.default_rng(derive_seed("oracle", int(cfg.seed), *question))
 
 
-def _where(context: tuple) -> tuple[str, str]:
-    labels = dict(context)
-    return str(labels.get("scene", "")), str(labels.get("mission", ""))
-
-
 def oracle_scores(scene: SceneGraph, command: Command, cfg: LLMConfig, context: tuple = ()) -> SemanticScores:
     """Relevance of every object and the target of ``command`` from its goal, with the share
     ``llm.oracle_error`` of answers replaced by seeded random ones (module doc)."""
-    sid, mid = _where(context)
+    sid, mid = where(context)
     wanted = set(command.goal.categories)
     instances: dict[str, float] = {}
     for oid in sorted(scene.objects):
@@ -79,34 +74,19 @@ def oracle_scores(scene: SceneGraph, command: Command, cfg: LLMConfig, context: 
     return SemanticScores(categories, instances, {f: 0.0 if f in targets else -IRRELEVANT for f in furniture})
 
 
-@PLAN_PROPOSERS.register("oracle")
-class OraclePlans(ScorePlans):
-    """Score-mode proposals over the oracle's scores (module doc); no LLM call."""
+def oracle_cost_label(measured: Optional[ActionResult], cfg: LLMConfig, scene: str, mission: str,
+                      *question: Any) -> str:
+    """f_en of the measured cost ("unknown" when the action could not be tried), replaced with
+    probability ``llm.oracle_error`` by a uniformly drawn class; the scene, mission and ``question``
+    seed the draw."""
+    label = "unknown" if measured is None else encode_cost(measured.cost)
+    rng = _draw(cfg, scene, mission, "cost", *question)
+    if rng.random() < cfg.oracle_error:
+        label = CLASSES[int(rng.integers(len(CLASSES)))]
+    return label
 
-    def scores(self, scene: SceneGraph, command: Command, known: Optional[KnownCosts],
-               context: tuple) -> SemanticScores:
-        key = (scene.id, command.id, _where(context))
-        if key not in self._scores:
-            self._scores[key] = oracle_scores(scene, command, self.cfg, context)
-        return self._scores[key]
 
-
-@COST_INFERRERS.register("oracle")
-class OracleCosts:
-    """The measured cost class of a manipulation, wrong with probability ``llm.oracle_error``."""
-
-    reads_ground_truth = True
-
-    def __init__(self, client: Any, cfg: LLMConfig, ground_truth: Optional[GroundTruth] = None) -> None:
-        self.cfg, self.truth = cfg, ground_truth
-
-    def infer(self, action: Action, scene: SceneGraph, known: KnownCosts, *, seed_parts, context) -> str:
-        if self.truth is None:
-            raise RuntimeError("llm.cost_inference_mode=oracle needs the world's ground truth: build the proposer "
-                               "with make_proposer(client, cfg, ground_truth=world)")
-        measured = self.truth.measure_manipulation(action)
-        label = "unknown" if measured is None else encode_cost(measured.cost)
-        rng = _draw(self.cfg, *_where(context), "cost", *seed_parts, str(action))
-        if rng.random() < self.cfg.oracle_error:
-            label = CLASSES[int(rng.integers(len(CLASSES)))]
-        return label
+def where(context: tuple) -> tuple[str, str]:
+    """(scene, mission) of a call's labels: what the oracle's error draws are seeded by."""
+    labels = dict(context)
+    return str(labels.get("scene", "")), str(labels.get("mission", ""))

@@ -25,7 +25,7 @@ from typing import Any, Optional, Protocol
 from interllm.config import LLMConfig
 from interllm.core.actions import Action, Plan, State
 from interllm.llm.types import LLMClientProtocol
-from interllm.planning import generation, scoring
+from interllm.planning import generation, oracle, scoring
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
 from interllm.registry import Registry
@@ -139,6 +139,35 @@ class ScoreCosts:
 
     def infer(self, action, scene, known, *, seed_parts, context):
         return scoring.infer_cost_by_scores(self.client, action, scene, known, self.cfg, seed_parts, context)
+
+
+@PLAN_PROPOSERS.register("oracle")
+class OraclePlans(ScorePlans):
+    """Score-mode proposals over the oracle's ground-truth scores (``planning.oracle``); no LLM call."""
+
+    def scores(self, scene: SceneGraph, command: Command, known: Optional[KnownCosts],
+               context: tuple) -> scoring.SemanticScores:
+        key = (scene.id, command.id, oracle.where(context))
+        if key not in self._scores:
+            self._scores[key] = oracle.oracle_scores(scene, command, self.cfg, context)
+        return self._scores[key]
+
+
+@COST_INFERRERS.register("oracle")
+class OracleCosts:
+    """The measured cost class of a manipulation, wrong with probability ``llm.oracle_error``."""
+
+    reads_ground_truth = True
+
+    def __init__(self, client: Any, cfg: LLMConfig, ground_truth: Optional[oracle.GroundTruth] = None) -> None:
+        self.cfg, self.truth = cfg, ground_truth
+
+    def infer(self, action, scene, known, *, seed_parts, context):
+        if self.truth is None:
+            raise RuntimeError("llm.cost_inference_mode=oracle needs the world's ground truth: build the proposer "
+                               "with make_proposer(client, cfg, ground_truth=world)")
+        return oracle.oracle_cost_label(self.truth.measure_manipulation(action), self.cfg, *oracle.where(context),
+                                        *seed_parts, str(action))
 
 
 @dataclass

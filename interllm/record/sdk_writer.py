@@ -22,7 +22,7 @@ class FoxgloveSdkWriter:
 
     def __init__(self, path: str | os.PathLike, chunk_size: int, compression: str) -> None:
         import foxglove  # lazy: only this writer needs the SDK
-        from foxglove.mcap import MCAPCompression, MCAPWriteOptions
+        from foxglove.mcap import MCAPCompression, MCAPWriteOptions  # lazy: only this writer needs the SDK
 
         codec = {"zstd": MCAPCompression.Zstd, "lz4": MCAPCompression.Lz4, "none": None}[compression]
         self._fx = foxglove
