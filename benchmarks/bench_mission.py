@@ -6,7 +6,8 @@ Uses the default experiment's first scene and mission (regenerated from the conf
 the committed LLM cache in replay mode, so no model runs: the time is planning + MuJoCo execution
 (+ logging). Per planner it measures, best of N:
 
-- exec: the mission with a recorder that only keeps the calls (planning + MuJoCo, no logging);
+- exec: the mission with a recorder that only keeps the calls (planning + MuJoCo, no logging), in
+  a fresh World as the missions stage runs each mission;
 - log: writing exactly those calls to an MCAP (McapRecorder with the robot model: /tf with the
   arm's link frames, /joint_states, /scene updates, paths, actions, LLM calls, metrics), so the
   overhead is log / exec (goal <= 10%);
@@ -96,7 +97,9 @@ def main() -> None:
     cands = generate_initial_candidates(scene, mission, client, cfg)
     grids = {k: rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, k) for k in ("presumed", "true")}
     robot = RobotKinematics(cfg.sim)
-    world = World(scene, cfg.sim, cfg.scene.grid_resolution, grids)
+
+    def world() -> World:  # a fresh world per mission run, as the missions stage makes one
+        return World(scene, cfg.sim, cfg.scene.grid_resolution, grids)
     print(f"scene {scene.id}, mission {mission.id} ({len(mission.commands)} commands), replayed LLM cache")
     print(f"{'planner':<11}{'actions':>8}{'samples':>8}{'sim [s]':>9}{'exec [s]':>9}{'log [s]':>9}"
           f"{'overhead':>9}{'add_message':>12}{'overhead':>9}{'foxglove-sdk':>13}{'overhead':>9}{'end-to-end':>11}"
@@ -108,7 +111,7 @@ def main() -> None:
             for i in range(args.repeats):
                 cl = CallLog()
                 t = time.perf_counter()
-                rec = run_mission(planner, world, mission, cands, client, cfg, cl).to_dict()
+                rec = run_mission(planner, world(), mission, cands, client, cfg, cl).to_dict()
                 best["exec"] = min(best["exec"], time.perf_counter() - t)
                 fast_path, slow_path = Path(tmp) / f"{planner}_{i}.mcap", Path(tmp) / f"{planner}_{i}_slow.mcap"
                 best["log"] = min(best["log"], write(fast_path, cl.calls, scene, grids, robot))
@@ -118,12 +121,12 @@ def main() -> None:
                 best["sdk"] = min(best["sdk"], write(sdk_path, cl.calls, scene, grids, robot, writer="foxglove"))
                 assert len(read_run(sdk_path).actions) == len(read_run(fast_path).actions), "the writers differ"
                 t = time.perf_counter()
-                run_mission(planner, world, mission, cands, client, cfg, NullRecorder())
+                run_mission(planner, world(), mission, cands, client, cfg, NullRecorder())
                 best["null"] = min(best["null"], time.perf_counter() - t)
                 t = time.perf_counter()
                 with McapRecorder(Path(tmp) / f"{planner}_e2e.mcap", scene, {"bench": "1"}, grids=grids,
                                   robot=robot) as r:
-                    run_mission(planner, world, mission, cands, client, cfg, r)
+                    run_mission(planner, world(), mission, cands, client, cfg, r)
                 best["mcap"] = min(best["mcap"], time.perf_counter() - t)
             n = sum(len(c["actions"]) for c in rec["commands"])
             samples = sum(a[0].trajectory.t.size for name, a in cl.calls if name == "action" and a[0].trajectory)

@@ -77,8 +77,9 @@ class McapRecorder:
     grids: occupancy grids by name (``/grid/<name>``), e.g. {"presumed": ..., "true": ...}.
     joint_names: arm joint names for ``/joint_states`` when a Trajectory carries none.
     chunk_size: uncompressed chunk size limit [bytes]; compression: "zstd" | "lz4" | "none".
-    writer: "mcap" (the mcap package with the batched message path, ``record/batch.py``) or
-        "foxglove" (Foxglove's SDK, ``record/sdk_writer.py``); the same messages either way.
+    writer: "foxglove" (Foxglove's SDK, ``record/sdk_writer.py``: the default, 10-15% faster in
+        ``benchmarks/bench_mission.py``) or "mcap" (the mcap package with the batched message path,
+        ``record/batch.py``); the same messages either way.
     robot: optional robot model (``interllm.sim.kinematics.RobotKinematics`` or anything with
         ``joint_names``, ``chain`` [(parent, child)], ``link_poses(joints[N, n]) -> (xyz[N, L, 3],
         quat_xyzw[N, L, 4])`` and ``visuals()``): arm link frames on ``/tf`` and the robot's shape on
@@ -88,7 +89,7 @@ class McapRecorder:
     def __init__(self, path: str | os.PathLike, scene: SceneGraph, metadata: dict[str, Any] | None = None,
                  grids: dict[str, OccupancyGrid] | None = None, joint_names: Sequence[str] = (), *,
                  chunk_size: int = 256 * 1024, compression: str = "zstd", robot: Any = None,
-                 writer: str = "mcap") -> None:
+                 writer: str = "foxglove") -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression {compression!r} is not valid; choose one of {list(COMPRESSIONS)}")
         if writer not in WRITERS:

@@ -33,6 +33,7 @@ class FoxgloveSdkWriter:
                                                                           compression_threads=0))
         self._schemas: list = []
         self._channels: list = []
+        self._log: list = []  # per channel: the SDK channel's native log(data: bytes, log_time [ns])
 
     def start(self, profile: str = "", library: str = "") -> None:
         """The SDK writes the header when the file is opened (profile "", its own library name)."""
@@ -42,18 +43,20 @@ class FoxgloveSdkWriter:
         return len(self._schemas)  # MCAP schema ids start at 1
 
     def register_channel(self, topic: str, message_encoding: str, schema_id: int) -> int:
-        self._channels.append(self._fx.Channel(topic, schema=self._schemas[schema_id - 1],
-                                               message_encoding=message_encoding, context=self._ctx))
+        channel = self._fx.Channel(topic, schema=self._schemas[schema_id - 1], message_encoding=message_encoding,
+                                   context=self._ctx)
+        self._channels.append(channel)
+        self._log.append(channel.base.log)  # serialized bytes go straight to the SDK (no per-call type checks)
         return len(self._channels) - 1
 
     def add_message(self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int) -> None:
-        self._channels[channel_id].log(data, log_time=log_time)
+        self._log[channel_id](data, log_time)
 
     def add_messages(self, rows: Sequence[tuple[int, int, bytes, int]]) -> None:
         """rows: (channel_id, log_time = publish_time [ns], data, sequence), in file order."""
-        channels = self._channels
+        log = self._log
         for ch, t, data, _ in rows:
-            channels[ch].log(data, log_time=t)
+            log[ch](data, t)
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         self._writer.write_metadata(name, data)
