@@ -38,7 +38,8 @@ from interllm.stages.workers import Job, failed_message, merge_call_logs, usable
 
 class MissionWorker:
     """What running missions needs once per process: the config, an LLM client, the robot model,
-    and the scenes, grids and candidates already loaded (by scene id)."""
+    and the scenes, grids, candidates and worlds already loaded (by scene id; ``run_mission`` resets
+    the world to each mission's start, so results do not depend on which runs a worker did before)."""
 
     def __init__(self, cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
                  prov: dict, call_log: Path) -> None:
@@ -48,6 +49,7 @@ class MissionWorker:
         self.robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
         self.gammas = Gammas.from_config(cfg)
         self._scenes: dict[str, tuple] = {}
+        self._worlds: dict[str, World] = {}  # one per scene, reset for each mission run
 
     def scene(self, sid: str) -> tuple:
         if sid not in self._scenes:
@@ -65,7 +67,9 @@ class MissionWorker:
         d = self.out_dir / planner / sid
         d.mkdir(parents=True, exist_ok=True)
         meta = {"planner": planner, "scene": sid, "mission": mission_id, **self.prov}
-        world = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids)
+        if sid not in self._worlds:  # built once per scene: its IK models and path fields serve every run
+            self._worlds[sid] = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids)
+        world = self._worlds[sid]
         with McapRecorder(d / f"{mission_id}.mcap", scene, meta, grids=grids, robot=self.robot) as rec:
             hook = metric_rows_logger(rec, planner, scene, mission_id, self.gammas)
             record = run_mission(planner, world, mission, cands[mission_id], self.client, self.cfg, rec, hook)
