@@ -42,15 +42,16 @@ def house(rooms: int):
     from interllm.scene.catalog import scene_config
 
     if rooms <= 9:
-        return scene_config("paper", n_rooms=rooms)
-    return scene_config("huge", n_rooms=rooms, n_furniture=round(rooms * 360 / 110),
-                        n_objects=round(rooms * 2000 / 110))
+        return replace(scene_config("paper"), n_rooms=rooms)
+    return replace(scene_config("huge"), n_rooms=rooms, n_furniture=round(rooms * 360 / 110),
+                   n_objects=round(rooms * 2000 / 110))
 
 
 def measure(rooms: int, setting: str) -> dict:
     """One (size, setting) in this process; returns the figures."""
     from interllm.config import ExperimentConfig
     from interllm.llm import embedded, make_client
+    from interllm.llm.types import ScoreRequest
     from interllm.planners.candidates import generate_initial_candidates
     from interllm.planners.runner import run_mission
     from interllm.scene.generator import generate_scene
@@ -72,19 +73,22 @@ def measure(rooms: int, setting: str) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         cfg.llm = replace(cfg.llm, cache_dir=tmp)
         client = make_client(cfg.llm)
+        client.score(ScoreRequest("warm-up", "Load the model.", (" ok",)))  # the model load is not timed
+        tokens0, llm0 = client.stats.tokens_in, client.stats.backend_seconds
         cands = generate_initial_candidates(scene, mission, client, cfg)  # the candidates stage's request
         grids = {k: rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, k) for k in ("presumed", "true")}
         s = client.stats
-        llm_s = s.backend_seconds
+        llm_s = s.backend_seconds - llm0
         t1 = time.perf_counter()
         world = World(scene, cfg.sim, cfg.scene.grid_resolution, grids)
-        run_mission("inter_llm", world, mission, cands, client, cfg)
-        t_run = time.perf_counter() - t1 - (s.backend_seconds - llm_s)
+        record = run_mission("inter_llm", world, mission, cands, client, cfg)
+        t_run = time.perf_counter() - t1 - (s.backend_seconds - llm0 - llm_s)
         client.close()
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return {"rooms": len(scene.rooms), "objects": len(scene.objects), "generate_s": t_gen,
-            "tokens": s.tokens_in, "llm_s": s.backend_seconds, "sim_s": t_run,
-            "calls": s.calls, "peak_mb": peak}
+            "tokens": s.tokens_in - tokens0, "llm_s": s.backend_seconds - llm0, "sim_s": t_run,
+            "calls": s.calls, "actions": sum(len(c.actions) for c in record.commands),
+            "sim_time": record.sim_time, "peak_mb": peak}
 
 
 def main() -> int:
@@ -97,7 +101,7 @@ def main() -> int:
         print(json.dumps(measure(int(args.one[0]), args.one[1])))
         return 0
     print(f"{'rooms':>6}{'objects':>8}{'setting':>12}{'gen [s]':>9}{'tokens/cmd':>12}{'LLM s/cmd':>11}"
-          f"{'plan+sim s/cmd':>16}{'peak MB':>9}", flush=True)
+          f"{'plan+sim s/cmd':>16}{'actions':>9}{'sim time [s]':>13}{'peak MB':>9}", flush=True)
     for rooms in (int(r) for r in args.rooms.split(",")):
         for setting in ("before", "now"):
             if setting == "before" and rooms > args.flat_max_rooms:
@@ -111,7 +115,8 @@ def main() -> int:
             r = json.loads(p.stdout.strip().splitlines()[-1])
             name = "before #18" if setting == "before" else "now"
             print(f"{r['rooms']:>6}{r['objects']:>8}{name:>12}{r['generate_s']:>9.2f}{r['tokens']:>12.0f}"
-                  f"{r['llm_s']:>11.2f}{r['sim_s']:>16.2f}{r['peak_mb']:>9.0f}", flush=True)
+                  f"{r['llm_s']:>11.2f}{r['sim_s']:>16.2f}{r['actions']:>9}{r['sim_time']:>13.1f}{r['peak_mb']:>9.0f}",
+                  flush=True)
     print("per command: one mission of the first command, Inter-LLM: the candidates stage's scoring of the command,"
           " then its execution (no cost inference on a first command)")
     return 0

@@ -46,6 +46,10 @@ _DOOR_RGBA = (0.45, 0.25, 0.1, 1.0)
 _OBJECT_RGBA = (0.2, 0.5, 0.85, 1.0)
 
 
+ARENA_BYTES = 32 * 1024 * 1024  # [bytes] MjData arena of the house model (mjData.narena) ...
+ARENA_BYTES_PER_BODY = 32 * 1024  # [bytes] ... plus this per body
+
+
 def _static(body, name: str, size, pos, quat=(1.0, 0.0, 0.0, 0.0), rgba=(0.7, 0.7, 0.7, 1.0)):
     return body.add_geom(name=name, type=_BOX, size=list(size), pos=list(pos), quat=list(quat),
                          rgba=list(rgba), contype=CT_STATIC, conaffinity=CA_STATIC)
@@ -116,6 +120,10 @@ def build_world_spec(scene: SceneGraph, robot: bool = True, sim_cfg: Optional[Si
         add_robot(wb, sim_cfg, mobile=True)
     for o in sorted(scene.objects.values(), key=lambda o: o.id):
         add_object(wb, o, free=True)
+    # MuJoCo sizes its arena by a heuristic that grows with the square of the bodies (6.4 GB for the
+    # huge house, and more than it can allocate for 300 rooms); the experiment only places bodies and
+    # asks for the base's contacts, so a size linear in the bodies is plenty
+    spec.memory = ARENA_BYTES + ARENA_BYTES_PER_BODY * len(spec.bodies)
     return spec
 
 
