@@ -6,9 +6,11 @@ and never branch on the mode.
   feasibility checker rejected, ``replan`` the rest of a command after an execution failure.
   ``generate`` mode: :class:`GeneratePlans` (the LLM writes the plans; see
   ``planning.generation``); ``score`` mode: :class:`ScorePlans` (the LLM ranks objects and
-  targets, plans are sampled and assembled; see ``planning.scoring``).
+  targets, plans are sampled and assembled; see ``planning.scoring``); ``oracle`` mode:
+  :class:`OraclePlans` (score-mode sampling over ground-truth scores; see ``planning.oracle``).
 - :class:`CostInferrer` — ``infer`` the cost class of a manipulation from the measured ones
-  (``llm.cost_inference_mode``: :class:`GenerateCosts` or :class:`ScoreCosts`).
+  (``llm.cost_inference_mode``: :class:`GenerateCosts`, :class:`ScoreCosts` or, from the
+  simulator's measurement, :class:`OracleCosts`).
 - :class:`Proposer` holds one of each, the pair a planner works with.
 
 Adding a mode: a class with the methods of the protocol, registered under its name with
