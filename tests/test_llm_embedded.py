@@ -150,10 +150,12 @@ def test_batched_scores_are_a_function_of_the_request(backend):
     from interllm.llm import embedded
 
     prompt = "Request: Set up breakfast on the dining table.\nUseful item and where it is:"
+    calibration = "Request: N/A\nUseful item and where it is:"
     conts = [f" item {i} on the table" for i in range(embedded.SCORE_SEQS + 5)]
-    first = backend.score(prompt, conts)
+    first = backend.score(prompt, conts, calibration)
     backend.score("Something else entirely.", [" a", " b", " c"])
-    again = backend.score(prompt, conts)
-    assert again.raw == first.raw
+    again = backend.score(prompt, conts, calibration)  # the calibration is memoised now
+    assert again.raw == first.raw and again.calibration == first.calibration
+    assert again.tokens_in == first.tokens_in  # counted alike: the cache stores what the request costs
     alone = backend.score(prompt, [conts[-1]])  # decoded in a group of one
     assert abs(alone.raw[0] - first.raw[-1]) < 0.15

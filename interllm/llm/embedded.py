@@ -269,7 +269,7 @@ class EmbeddedBackend:
         self._path: Optional[Path] = None
         self._style = prompt_style
         self._lock = threading.Lock()
-        self._calib_memo: dict[tuple[str, tuple[str, ...]], list[float]] = {}
+        self._calib_memo: dict[tuple[str, tuple[str, ...]], tuple[list[float], int]] = {}
         self._aligned = 0  # context positions [0, _aligned) were evaluated in aligned whole chunks
         self.load_seconds = 0.0  # wall time of the model load [s] (diagnostics only)
         self._deadline = math.inf  # time.monotonic() by which the current call must end [s]
@@ -448,9 +448,11 @@ class EmbeddedBackend:
             if calibration_prompt is not None:
                 memo = (calibration_prompt, tuple(continuations))  # scores depend on the whole group
                 if memo not in self._calib_memo:
-                    self._calib_memo[memo], n, _ = self._score_prompt(calibration_prompt, conts)
-                    tokens_in += n
-                calib = list(self._calib_memo[memo])
+                    scores, n, _ = self._score_prompt(calibration_prompt, conts)
+                    self._calib_memo[memo] = (scores, n)
+                scores, n = self._calib_memo[memo]
+                calib = list(scores)
+                tokens_in += n  # counted when memoised too: tokens_in is a function of the request
             raw, n, reused = self._score_prompt(prompt, conts)
             tokens_in += n
             return Scores(raw=raw, calibration=calib, tokens_in=tokens_in, prompt_tokens_reused=reused)
