@@ -393,12 +393,14 @@ class EmbeddedBackend:
         n_past = llm.n_tokens
         ctx, mem = llm._ctx.ctx, llm._ctx.memory
         rows: list[tuple[int, int]] = []
+        longest = max(len(conts[k]) for k in group)
+        if n_past + longest > self.cfg.n_ctx:  # checked before any sequence is copied: nothing to undo
+            raise ValueError(f"prompt ({n_past + 1} tokens) + a continuation of {longest} tokens exceed "
+                             f"llm.n_ctx={self.cfg.n_ctx}; raise llm.n_ctx or shorten the request")
         b = llm._batch.batch
         b.n_tokens = 0
         for sid, k in enumerate(group, start=1):
             seq = [last_prompt_token] + conts[k][:-1]
-            if n_past + len(seq) > self.cfg.n_ctx:
-                raise ValueError(f"prompt + continuation exceed llm.n_ctx={self.cfg.n_ctx}")
             C.llama_memory_seq_cp(mem, 0, sid, 0, n_past)
             for i, tok in enumerate(seq):
                 j = b.n_tokens

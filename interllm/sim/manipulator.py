@@ -389,7 +389,7 @@ class _Goal:
     spot: Optional[np.ndarray] = None  # place: the object's centre on the surface [m]
 
 
-def _hand_and_place(state: State, action: Action, holding: Optional[str]) -> str:
+def _why_the_state_forbids(state: State, action: Action, holding: Optional[str]) -> str:
     """Why the robot's state does not allow ``action`` ("" when it does)."""
     if holding is None and state.holding is not None:
         return f"the hand is not free (holding {state.holding})"
@@ -400,37 +400,46 @@ def _hand_and_place(state: State, action: Action, holding: Optional[str]) -> str
     return ""
 
 
-def _pickup_goal(scene: SceneGraph, action: Action) -> _Goal | str:
-    """The grasp of ``action.obj`` where it stands, or why there is none."""
+def _unknown(scene: SceneGraph, action: Action) -> str:
+    """Why ``action`` names something the scene does not have ("" when it names nothing unknown)."""
     if action.furniture not in scene.furniture:
         return f"unknown furniture {action.furniture!r}"
     if action.obj not in scene.objects:
         return f"unknown object {action.obj!r}"
+    return ""
+
+
+def _goal_at(scene: SceneGraph, action: Action, centre, exclude: tuple[str, ...], what_failed: str,
+             spot=None) -> _Goal:
+    """The gripper's target for the object centred at ``centre`` [m] on the action's furniture (at
+    least GRASP_MIN_HEIGHT above the surface) and the box the grip site must end in."""
+    o, f = scene.objects[action.obj], scene.furniture[action.furniture]
+    centre = np.asarray(centre, dtype=float)
+    target = np.array([centre[0], centre[1], max(centre[2], f.surface_height + GRASP_MIN_HEIGHT)])
+    half = np.asarray(o.size, dtype=float) / 2
+    return _Goal(target, (centre - half, centre + half + [0, 0, GRASP_MIN_HEIGHT]), exclude, what_failed, spot)
+
+
+def _pickup_goal(scene: SceneGraph, action: Action) -> _Goal | str:
+    """The grasp of ``action.obj`` where it stands, or why there is none."""
+    why = _unknown(scene, action)
+    if why:
+        return why
     o = scene.objects[action.obj]
     if o.furniture != action.furniture:
         return f"{action.obj} is on {o.furniture}, not on {action.furniture}"
-    f = scene.furniture[action.furniture]
-    target = np.array([o.position[0], o.position[1], max(o.position[2], f.surface_height + GRASP_MIN_HEIGHT)])
-    half = np.asarray(o.size, dtype=float) / 2
-    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
-    return _Goal(target, inside, (), "no collision-free grasp")
+    return _goal_at(scene, action, o.position, (), "no collision-free grasp")
 
 
 def _place_goal(scene: SceneGraph, action: Action, robot_xy) -> _Goal | str:
     """The release of the held ``action.obj`` at the free spot nearest ``robot_xy``, or why there is none."""
-    if action.furniture not in scene.furniture:
-        return f"unknown furniture {action.furniture!r}"
-    if action.obj not in scene.objects:
-        return f"unknown object {action.obj!r}"
-    o = scene.objects[action.obj]
-    f = scene.furniture[action.furniture]
-    spot = place_spot(scene, action.furniture, o.size, robot_xy, action.obj)
+    why = _unknown(scene, action)
+    if why:
+        return why
+    spot = place_spot(scene, action.furniture, scene.objects[action.obj].size, robot_xy, action.obj)
     if spot is None:
         return f"no free spot for {action.obj} on {action.furniture}"
-    target = np.array([spot[0], spot[1], max(spot[2], f.surface_height + GRASP_MIN_HEIGHT)])
-    half = np.asarray(o.size, dtype=float) / 2
-    inside = (spot - half, spot + half + [0, 0, GRASP_MIN_HEIGHT])
-    return _Goal(target, inside, (action.obj,), "no collision-free placing pose", spot)
+    return _goal_at(scene, action, spot, (action.obj,), "no collision-free placing pose", spot)
 
 
 class Manipulator:
@@ -507,7 +516,7 @@ class Manipulator:
         """Pick up ``action.obj`` from ``action.furniture`` (see the module doc), starting at ``clock`` [s]."""
         if action.kind != "pickup":
             raise ValueError(f"Manipulator.pickup got a {action.kind!r} action: {action}")
-        why = _hand_and_place(state, action, holding=None)
+        why = _why_the_state_forbids(state, action, holding=None)
         goal = _pickup_goal(scene, action) if not why else why
         if isinstance(goal, str):
             return _precondition_fail(self.cfg, action, goal)
@@ -526,7 +535,7 @@ class Manipulator:
         if action.kind != "place":
             raise ValueError(f"Manipulator.place got a {action.kind!r} action: {action}")
         x, y, _ = physics.robot_pose
-        why = _hand_and_place(state, action, holding=action.obj)
+        why = _why_the_state_forbids(state, action, holding=action.obj)
         goal = _place_goal(scene, action, (x, y)) if not why else why
         if isinstance(goal, str):
             return _precondition_fail(self.cfg, action, goal)
