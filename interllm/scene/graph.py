@@ -16,7 +16,7 @@ from __future__ import annotations
 import copy
 import json
 from collections.abc import Iterable, Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 import networkx as nx
@@ -222,8 +222,8 @@ class SceneGraph:
 
     # ---- (de)serialisation -------------------------------------------------------------
     def to_dict(self) -> dict:
-        def recs(d):
-            return [asdict(v) for _, v in sorted(d.items())]
+        def recs(d):  # the records are flat (str, number and tuple fields): no deep copy as in asdict
+            return [{f.name: getattr(v, f.name) for f in fields(v)} for _, v in sorted(d.items())]
 
         return {
             "schema_version": SCHEMA_VERSION,
