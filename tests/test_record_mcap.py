@@ -68,7 +68,8 @@ def test_channels_schemas_and_counts(run_file):
     assert enc["/grid/true"] == ("foxglove.Grid", "protobuf")
     assert enc["/path/driven"] == ("foxglove.PosesInFrame", "protobuf")
     assert enc["/log"] == ("foxglove.Log", "protobuf")
-    assert enc["/actions"][1] == enc["/joint_states"][1] == enc["/planner/candidates"][1] == "json"
+    assert enc["/joint_states"] == ("interllm.JointStates", "protobuf")
+    assert enc["/actions"][1] == enc["/planner/candidates"][1] == "json"
 
 
 def test_actions_round_trip_exactly(run_file):
@@ -221,7 +222,7 @@ def test_bad_input_errors(tmp_path):
 
 @pytest.mark.parametrize("closed", [True, False])
 def test_a_log_from_an_older_version_is_named_as_such_not_as_truncated(tmp_path, closed):
-    """Before base poses moved to /joint_states, its messages had none: say so, complete or not."""
+    """Joint states were JSON before they were protobuf: say so, complete or not."""
     from mcap.writer import Writer
 
     from interllm.record.reader import RunLogFormatError
@@ -236,7 +237,7 @@ def test_a_log_from_an_older_version_is_named_as_such_not_as_truncated(tmp_path,
                       data=b'{"action": 0, "names": ["j"], "positions": [0.5]}')
         if closed:
             w.finish()  # else: a killed run, no summary; the streaming read handles it
-    with pytest.raises(RunLogFormatError, match=r"old\.mcap: /joint_states at t=2\.000 s has no base pose.*"
+    with pytest.raises(RunLogFormatError, match=r"old\.mcap: /joint_states at t=2\.000 s is JSON.*"
                                                 r"dvc repro --force missions"):
         read_run(path)
 
@@ -280,9 +281,9 @@ def test_batch_message_path_writes_the_same_bytes_as_add_message(chunk_size):
     assert got == rows
 
 
-def test_joint_states_are_canonical_json_with_the_base_pose(run_file):
-    """The hand-formatted fast path gives exactly json.dumps(sort_keys=True) of the sample."""
-    from interllm.record.topics import JOINT_STATES_SCHEMA, dumps
+def test_joint_states_are_the_canonical_protobuf_of_each_sample(run_file):
+    """The array-built messages (record/wire.py) are exactly SerializeToString() of each sample."""
+    from interllm.record.topics import JointStates
 
     path, acts, _ = run_file
     msgs, _ = _raw(path)
@@ -291,6 +292,4 @@ def test_joint_states_are_canonical_json_with_the_base_pose(run_file):
                for b, j in zip(r.trajectory.base.tolist(), r.trajectory.joints.tolist(), strict=True)]
     assert len(js) == len(samples)
     for data, (k, b, j) in zip(js, samples, strict=True):
-        want = {"action": k, "base": b, "names": list(JOINTS), "positions": j}
-        assert data == dumps(want).encode()
-        jsonschema.validate(json.loads(data), JOINT_STATES_SCHEMA)
+        assert data == JointStates(action=k, base=b, names=list(JOINTS), positions=j).SerializeToString()

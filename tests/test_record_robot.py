@@ -3,7 +3,6 @@ rerun replay of both, checked against MuJoCo's own kinematics of the full house 
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -226,16 +225,15 @@ def test_an_event_for_an_unknown_object_writes_nothing_of_the_action(tmp_path):
 
 
 def test_signed_zero_and_infinite_yaw_are_logged_as_given(tmp_path):
-    from interllm.record.topics import dumps
+    from interllm.record.topics import JointStates
 
     r, ctx = make_actions(1, 4)[0]
     r.trajectory.base = np.array([[0.0, 1.0, 0.0], [-0.0, 1.0, 0.0], [-0.0, 1.0, float("inf")], [1.0, 1.0, 0.5]])
     with McapRecorder(tmp_path / "z.mcap", make_scene(), {}) as rec:
         rec.action(r, ctx)
-    js = [json.loads(m.data) for m in _messages(tmp_path / "z.mcap", "/joint_states")]
-    raw = [m.data for m in _messages(tmp_path / "z.mcap", "/joint_states")]
-    assert [dumps(d).encode() for d in js] == raw
-    assert math.copysign(1.0, js[1]["base"][0]) == -1.0 and math.isinf(js[2]["base"][2])
+    js = [JointStates.FromString(m.data) for m in _messages(tmp_path / "z.mcap", "/joint_states")]
+    assert [list(m.base) for m in js] == r.trajectory.base.tolist()
+    assert math.copysign(1.0, js[1].base[0]) == -1.0 and math.isinf(js[2].base[2])
     tfs = [FrameTransforms.FromString(m.data) for m in _messages(tmp_path / "z.mcap", "/tf")]
     assert len(tfs) == 3  # the sample with an infinite yaw has no transform
 
@@ -276,6 +274,8 @@ def test_a_rejected_action_leaves_nothing_of_itself_in_the_log(tmp_path, kin, br
 
 
 def test_nonfinite_joint_sample_has_no_link_frames_and_round_trips(tmp_path, kin):
+    from interllm.record.topics import JointStates
+
     r, ctx = make_actions(1, 5)[0]
     r.trajectory.joints = np.tile(np.linspace(0, 1, 6), (5, 1)) * np.arange(1, 6)[:, None]
     r.trajectory.joint_names = ARM_JOINTS
@@ -285,8 +285,8 @@ def test_nonfinite_joint_sample_has_no_link_frames_and_round_trips(tmp_path, kin
     tfs = [FrameTransforms.FromString(m.data) for m in _messages(tmp_path / "nan.mcap", "/tf")]
     assert [len(m.transforms) for m in tfs] == [1 + len(kin.chain), 1 + len(kin.chain), 1,
                                                 1 + len(kin.chain), 1 + len(kin.chain)]
-    js = [json.loads(m.data) for m in _messages(tmp_path / "nan.mcap", "/joint_states")]
-    assert math.isnan(js[2]["positions"][1]) and js[0]["base"] == r.trajectory.base[0].tolist()
+    js = [JointStates.FromString(m.data) for m in _messages(tmp_path / "nan.mcap", "/joint_states")]
+    assert math.isnan(js[2].positions[1]) and list(js[0].base) == r.trajectory.base[0].tolist()
     got = read_run(tmp_path / "nan.mcap").actions[0].trajectory
     np.testing.assert_array_equal(got.joints, r.trajectory.joints)  # NaN compares equal here
     np.testing.assert_array_equal(got.base, r.trajectory.base)

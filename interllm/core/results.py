@@ -5,7 +5,7 @@ c_nav = γ_nav·cc + t + d ;  c_man = γ_man·(1 − sr) + t   (t simulated seco
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Optional
 
 import numpy as np
@@ -71,8 +71,9 @@ class ActionResult:
     trajectory: Optional[Trajectory] = None
     object_events: list[ObjectEvent] = field(default_factory=list)  # grasps / releases (logging only)
 
-    def to_record(self) -> dict:
-        """JSON-serialisable record (mission records, the run log's /actions); paths as lists of [x, y]."""
+    def to_record(self, paths: bool = True) -> dict:
+        """JSON-serialisable record (mission records, the run log's /actions); paths as lists of
+        [x, y] rounded to 1 um, left out with ``paths=False`` (the run log has them on /path/*)."""
         d = {
             "action": self.action.to_dict(),
             "kind": self.action.kind,
@@ -83,10 +84,10 @@ class ActionResult:
             "collisions": int(self.collisions),
             "distance": float(self.distance),
             "success_rate": float(self.success_rate),
-            "trials": [asdict(t) for t in self.trials],
+            "trials": [{f.name: getattr(t, f.name) for f in fields(t)} for t in self.trials],  # flat: no deep copy
             "reason": self.reason,
         }
-        for k in ("presumed_path", "driven_path"):
+        for k in ("presumed_path", "driven_path") if paths else ():
             v = getattr(self, k)
             d[k] = None if v is None else np.round(np.asarray(v, dtype=float), 6).tolist()
         return d

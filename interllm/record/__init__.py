@@ -1,8 +1,10 @@
 """Run logging: the Recorder protocol, MCAP writer/reader and rerun replay.
 
 Modules: ``api`` (the Recorder protocol), ``topics`` (the run log's topics, schemas and JSON
-encoding), ``foxglove`` (scene, grids and paths as Foxglove messages), ``batch`` (the batched
-MCAP message path), ``recorder`` (``McapRecorder``), ``reader``, ``replay``, ``figures``.
+encoding), ``foxglove`` (scene, grids and paths as Foxglove messages), ``wire`` (protobuf bytes
+of many messages per numpy call: /joint_states, paths), ``batch`` (the batched MCAP message path),
+``sdk_writer`` (the same through foxglove-sdk), ``recorder`` (``McapRecorder``), ``reader``,
+``replay``, ``figures``.
 ``McapRecorder`` writes one ``.mcap`` per mission run (Foxglove schemas + JSON planner events),
 ``read_run`` reads it back (also a killed run's truncated ``.mcap.partial``), ``replay`` /
 ``replay_main`` turn runs into rerun recordings (rerun is imported only when replaying).

@@ -49,6 +49,7 @@ from interllm.record.topics import (
     PRESUMED_TOPIC,
     SCENE_TOPIC,
     TF_TOPIC,
+    JointStates,
 )
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
@@ -183,6 +184,8 @@ class _Builder:
         self.driven: list[tuple[float, np.ndarray]] = []
         self.counts: dict[str, int] = defaultdict(int)
         self._pending: list[tuple[float, list[float], list[float]]] = []  # (t, base, joints)
+        self._pending_presumed: np.ndarray | None = None  # the /path messages of the action in progress
+        self._pending_driven: np.ndarray | None = None
         self.tf: dict[str, tuple[str, list]] = {}  # child -> (parent, [(t, x, y, z, qx, qy, qz, qw)])
         self.moves: list[ObjectMove] = []
         self._n_scene = 0
@@ -207,18 +210,24 @@ class _Builder:
                 series.append((t, tr.translation.x, tr.translation.y, tr.translation.z, tr.rotation.x,
                                tr.rotation.y, tr.rotation.z, tr.rotation.w))
         elif topic == JOINT_TOPIC:
-            d = json.loads(data)
-            if "base" not in d:
-                raise RunLogFormatError(f"/joint_states at t={t:.3f} s has no base pose: the log was written by an older "
-                                 f"interllm (base poses were only on /tf then); rerun the missions stage "
-                                 f"(dvc repro --force missions) to rewrite the run logs")
-            self.joint_names = tuple(d["names"])
+            if data[:1] == b"{":  # JSON, which JointStates (protobuf) never starts with
+                raise RunLogFormatError(f"/joint_states at t={t:.3f} s is JSON: the log was written by an older "
+                                        f"interllm (joint states are protobuf interllm.JointStates now); rerun the "
+                                        f"missions stage (dvc repro --force missions) to rewrite the run logs")
+            js = JointStates.FromString(data)
+            base, positions = list(js.base), list(js.positions)
+            self.joint_names = tuple(js.names)
             self.joint_t.append(t)
-            self.joints.append(d["positions"])
-            self.base.append((t, *d["base"]))
-            self._pending.append((t, d["base"], d["positions"]))
+            self.joints.append(positions)
+            self.base.append((t, *base))
+            self._pending.append((t, base, positions))
         elif topic == ACTIONS_TOPIC:
             d = json.loads(data)
+            # the action's paths: the /path messages since the last action (logs before they moved
+            # out of /actions carry them in the record)
+            d.setdefault("presumed_path", self._pending_presumed)
+            d.setdefault("driven_path", self._pending_driven)
+            self._pending_presumed = self._pending_driven = None
             res = ActionResult.from_record(d)
             if self._pending:
                 n = len(self._pending)
@@ -234,9 +243,11 @@ class _Builder:
             m = Log.FromString(data)
             self.logs.append((t, LOG_LEVEL_NAMES.get(m.level, "unknown"), m.message))
         elif topic == PRESUMED_TOPIC:
-            self.presumed.append((t, _path_from_message(PosesInFrame.FromString(data))))
+            self._pending_presumed = _path_from_message(PosesInFrame.FromString(data))
+            self.presumed.append((t, self._pending_presumed))
         elif topic == DRIVEN_TOPIC:
-            self.driven.append((t, _path_from_message(PosesInFrame.FromString(data))))
+            self._pending_driven = _path_from_message(PosesInFrame.FromString(data))
+            self.driven.append((t, self._pending_driven))
         elif topic.startswith(GRID_PREFIX):
             self.grids[topic[len(GRID_PREFIX):]] = _grid_from_message(Grid.FromString(data))
         elif topic == SCENE_TOPIC:

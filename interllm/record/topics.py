@@ -18,11 +18,14 @@ clamped to be non-decreasing per channel):
                       (``interllm.sim.kinematics.RobotKinematics``) the arm's link frames
                       (base_link -> shoulder -> ... -> hand -> grip) when the joints changed; both
                       at the first sample of every action. A frame keeps its last transform.
-- ``/joint_states``   JSON {"action", "base": [x, y, yaw], "names", "positions"} per trajectory
-                      sample: the exact trajectory (``read_run`` rebuilds Trajectory from it)
-- ``/path/presumed``  foxglove.PosesInFrame at the action start (navigate actions)
-- ``/path/driven``    foxglove.PosesInFrame at the action end (navigate actions)
-- ``/actions``        JSON: ActionResult.to_record() + "context" + "index" + "n_samples" at the
+- ``/joint_states``   interllm.JointStates (protobuf, ``JointStates`` below: action, base [x, y,
+                      yaw], names, positions) per trajectory sample: the exact trajectory, every
+                      double bit for bit (``read_run`` rebuilds Trajectory from it)
+- ``/path/presumed``  foxglove.PosesInFrame at the action start (navigate actions): the exact
+                      ``ActionResult.presumed_path``
+- ``/path/driven``    foxglove.PosesInFrame at the action end (navigate actions), right before
+                      its /actions record: the exact ``ActionResult.driven_path``
+- ``/actions``        JSON: ActionResult.to_record(paths=False) + "context" + "index" + "n_samples" at the
                       action end; its JSON schema is ``ACTION_SCHEMA`` (full, strict)
 - ``/log``            foxglove.Log
 - any other topic given to ``event()`` (``/planner/candidates``, ``/llm/calls``, ...): a JSON
@@ -40,6 +43,7 @@ from typing import Any
 
 import numpy as np
 from foxglove_schemas_protobuf.Log_pb2 import Log
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 
 from interllm.core import jsonfmt
 from interllm.core.frames import GRIP_FRAME, WORLD_FRAME
@@ -63,18 +67,15 @@ LOG_LEVEL_NAMES = {Log.UNKNOWN: "unknown", Log.DEBUG: "debug", Log.INFO: "info",
                    Log.WARNING: "warning", Log.ERROR: "error", Log.FATAL: "fatal"}
 
 _NUM = {"type": "number"}
-_PATH = {"oneOf": [{"type": "null"},
-                   {"type": "array", "items": {"type": "array", "items": _NUM, "minItems": 2,
-                                               "maxItems": 2}}]}
 ACTION_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "interllm.ActionResult",
-    "description": "ActionResult.to_record() of one executed action, with its planner context.",
+    "description": "ActionResult.to_record(paths=False) of one executed action, with its planner context "
+                   "(its paths are the /path/presumed and /path/driven messages before it).",
     "type": "object",
     "additionalProperties": False,
     "required": ["index", "n_samples", "context", "action", "kind", "success", "cost", "time",
-                 "t_start", "collisions", "distance", "success_rate", "trials", "reason",
-                 "presumed_path", "driven_path"],
+                 "t_start", "collisions", "distance", "success_rate", "trials", "reason"],
     "properties": {
         "index": {"type": "integer", "minimum": 0, "description": "0-based action number in the run"},
         "n_samples": {"type": "integer", "minimum": 0,
@@ -105,21 +106,36 @@ ACTION_SCHEMA: dict[str, Any] = {
                            "success": {"type": "boolean"}, "time": _NUM, "reason": {"type": "string"},
                            "ik_error": _NUM}}},
         "reason": {"type": "string"},
-        "presumed_path": _PATH,
-        "driven_path": _PATH,
     },
 }
-JOINT_STATES_SCHEMA: dict[str, Any] = {
-    "title": "interllm.JointStates",
-    "type": "object",
-    "required": ["action", "base", "names", "positions"],
-    "properties": {"base": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
-                            "description": "base pose x [m], y [m], yaw [rad]"},
-                   "names": {"type": "array", "items": {"type": "string"}},
-                   "positions": {"type": "array", "items": {"type": "number"},
-                                 "description": "arm joint angles [rad]"},
-                   "action": {"type": "integer", "description": "index of the action it belongs to"}},
-}
+
+
+def _joint_states_type() -> type:
+    """The ``interllm.JointStates`` protobuf message class, from a descriptor built here (the
+    schema the run log carries, so viewers decode it without this package)::
+
+        syntax = "proto3"; package interllm;
+        message JointStates {
+          uint32 action = 1;            // index of the action it belongs to
+          repeated double base = 2;     // base pose x [m], y [m], yaw [rad]
+          repeated string names = 3;    // arm joint names
+          repeated double positions = 4;  // arm joint angles [rad], in the order of names
+        }
+    """
+    fdp = descriptor_pb2.FileDescriptorProto(name="interllm/JointStates.proto", package="interllm", syntax="proto3")
+    msg = fdp.message_type.add(name="JointStates")
+    f = descriptor_pb2.FieldDescriptorProto
+    for number, (name, kind, label) in enumerate((("action", f.TYPE_UINT32, f.LABEL_OPTIONAL),
+                                                  ("base", f.TYPE_DOUBLE, f.LABEL_REPEATED),
+                                                  ("names", f.TYPE_STRING, f.LABEL_REPEATED),
+                                                  ("positions", f.TYPE_DOUBLE, f.LABEL_REPEATED)), start=1):
+        msg.field.add(name=name, number=number, type=kind, label=label, json_name=name)
+    pool = descriptor_pool.DescriptorPool()
+    pool.Add(fdp)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName("interllm.JointStates"))
+
+
+JointStates = _joint_states_type()
 OBJECT_EVENT_SCHEMA: dict[str, Any] = {
     "title": "interllm.ObjectEvent",
     "type": "object",
