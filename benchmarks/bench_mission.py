@@ -8,17 +8,19 @@ the committed LLM cache in replay mode, so no model runs: the time is planning +
 
 - exec: the mission with a recorder that only keeps the calls (planning + MuJoCo, no logging), in
   one World per scene reset for each run, as the missions stage keeps it;
-- log: writing exactly those calls to an MCAP (McapRecorder with the robot model: /tf with the
-  arm's link frames, /joint_states, /scene updates, paths, actions, LLM calls, metrics), so the
-  overhead is log / exec (goal <= 10%);
-- log (add_message): the same file written through mcap's per-message ``Writer.add_message``
-  instead of the recorder's batched path (same bytes, checked here);
-- log (foxglove-sdk): the same messages written through Foxglove's SDK
-  (``McapRecorder(writer="foxglove")``), the maintained writer the issue asks to compare with;
+- log, three ways, each writing exactly those calls to an MCAP (McapRecorder with the robot
+  model: /tf with the arm's link frames, /joint_states, /scene updates, paths, actions, LLM calls,
+  metrics); the overhead is log / exec (goal <= 10%):
+  - foxglove-sdk: Foxglove's SDK (``McapRecorder(writer="foxglove")``), the default writer;
+  - mcap: the mcap package with the recorder's batched message path (``writer="mcap"``);
+  - add_message: the same through mcap's per-message ``Writer.add_message`` (same bytes as mcap,
+    checked here);
 - end to end: the whole mission with the McapRecorder against one with NullRecorder (noisier:
   two full runs on a shared machine).
-Also prints simulated mission time, the real-time factor, the file size and the time to replay
-the file to a rerun .rrd (``interllm replay --save``; goal <= 5 s).
+Times are CPU seconds of this process (``time.process_time``, best of N), so that other tenants
+of a shared machine do not move the ratios; the real-time factor is simulated time over CPU
+time. Also prints simulated mission time, the file size and the wall time to replay the file to a
+rerun .rrd (``interllm replay --save``; goal <= 5 s).
 """
 
 from __future__ import annotations
@@ -65,6 +67,12 @@ class CallLog:
         self.calls.append(("action", a))
 
 
+def cpu_time() -> float:
+    """CPU seconds of this process (all its threads): on a shared machine, time other tenants take
+    from us moves wall-clock times by +-30% between repeats, CPU time by a few percent."""
+    return time.process_time()
+
+
 def _per_message(self, rows) -> None:
     for ch, t, data, seq in rows:
         self.add_message(channel_id=ch, log_time=t, data=data, publish_time=t, sequence=seq)
@@ -75,11 +83,11 @@ def write(path: Path, calls, scene, grids, robot, per_message: bool = False, wri
     if per_message:
         batch.BatchWriter.add_messages = _per_message
     try:
-        t = time.perf_counter()
+        t = cpu_time()
         with McapRecorder(path, scene, {"bench": "1"}, grids=grids, robot=robot, writer=writer) as r:
             for name, args in calls:
                 getattr(r, name)(*args)
-        return time.perf_counter() - t
+        return cpu_time() - t
     finally:
         batch.BatchWriter.add_messages = fast
 
@@ -102,18 +110,19 @@ def main() -> None:
     def world() -> World:  # one world per scene, reset by run_mission, as the missions stage keeps it
         return shared
     print(f"scene {scene.id}, mission {mission.id} ({len(mission.commands)} commands), replayed LLM cache")
-    print(f"{'planner':<11}{'actions':>8}{'samples':>8}{'sim [s]':>9}{'exec [s]':>9}{'log [s]':>9}"
-          f"{'overhead':>9}{'add_message':>12}{'overhead':>9}{'foxglove-sdk':>13}{'overhead':>9}{'end-to-end':>11}"
-          f"{'x real time':>12}{'MB':>6}{'replay [s]':>11}")
+    print("CPU seconds, best of", args.repeats, "(log columns: seconds, then overhead = log / exec)")
+    print(f"{'planner':<11}{'actions':>8}{'samples':>8}{'sim [s]':>9}{'exec [s]':>9}{'foxglove-sdk':>13}{'':>7}"
+          f"{'mcap':>8}{'':>7}{'add_message':>12}{'':>7}{'end-to-end':>11}{'x real time':>12}{'MB':>6}"
+          f"{'replay [s]':>11}")
     with tempfile.TemporaryDirectory() as tmp:
         for planner in cfg.planner.names:
             best = {"exec": float("inf"), "log": float("inf"), "slow": float("inf"), "sdk": float("inf"),
                     "null": float("inf"), "mcap": float("inf")}
             for i in range(args.repeats):
                 cl = CallLog()
-                t = time.perf_counter()
+                t = cpu_time()
                 rec = run_mission(planner, world(), mission, cands, client, cfg, cl).to_dict()
-                best["exec"] = min(best["exec"], time.perf_counter() - t)
+                best["exec"] = min(best["exec"], cpu_time() - t)
                 fast_path, slow_path = Path(tmp) / f"{planner}_{i}.mcap", Path(tmp) / f"{planner}_{i}_slow.mcap"
                 best["log"] = min(best["log"], write(fast_path, cl.calls, scene, grids, robot))
                 best["slow"] = min(best["slow"], write(slow_path, cl.calls, scene, grids, robot, per_message=True))
@@ -121,23 +130,23 @@ def main() -> None:
                 sdk_path = Path(tmp) / f"{planner}_{i}_sdk.mcap"
                 best["sdk"] = min(best["sdk"], write(sdk_path, cl.calls, scene, grids, robot, writer="foxglove"))
                 assert len(read_run(sdk_path).actions) == len(read_run(fast_path).actions), "the writers differ"
-                t = time.perf_counter()
+                t = cpu_time()
                 run_mission(planner, world(), mission, cands, client, cfg, NullRecorder())
-                best["null"] = min(best["null"], time.perf_counter() - t)
-                t = time.perf_counter()
+                best["null"] = min(best["null"], cpu_time() - t)
+                t = cpu_time()
                 with McapRecorder(Path(tmp) / f"{planner}_e2e.mcap", scene, {"bench": "1"}, grids=grids,
                                   robot=robot) as r:
                     run_mission(planner, world(), mission, cands, client, cfg, r)
-                best["mcap"] = min(best["mcap"], time.perf_counter() - t)
+                best["mcap"] = min(best["mcap"], cpu_time() - t)
             n = sum(len(c["actions"]) for c in rec["commands"])
             samples = sum(a[0].trajectory.t.size for name, a in cl.calls if name == "action" and a[0].trajectory)
-            size = fast_path.stat().st_size / 1e6
+            size = sdk_path.stat().st_size / 1e6
             t = time.perf_counter()
-            replay(fast_path, save=str(Path(tmp) / f"{planner}.rrd"))
+            replay(sdk_path, save=str(Path(tmp) / f"{planner}.rrd"))
             t_replay = time.perf_counter() - t
-            print(f"{planner:<11}{n:>8}{samples:>8}{rec['sim_time']:>9.1f}{best['exec']:>9.2f}{best['log']:>9.3f}"
-                  f"{best['log'] / best['exec']:>9.1%}{best['slow']:>12.3f}{best['slow'] / best['exec']:>9.1%}"
-                  f"{best['sdk']:>13.3f}{best['sdk'] / best['exec']:>9.1%}"
+            logs = "".join(f"{best[k]:>{w}.3f}{best[k] / best['exec']:>7.1%}"
+                           for k, w in (("sdk", 13), ("log", 8), ("slow", 12)))
+            print(f"{planner:<11}{n:>8}{samples:>8}{rec['sim_time']:>9.1f}{best['exec']:>9.2f}{logs}"
                   f"{(best['mcap'] - best['null']) / best['null']:>11.1%}{rec['sim_time'] / best['exec']:>12.0f}"
                   f"{size:>6.2f}{t_replay:>11.2f}")
     client.close()
