@@ -90,9 +90,10 @@ class McapRecorder:
     grids: occupancy grids by name (``/grid/<name>``), e.g. {"presumed": ..., "true": ...}.
     joint_names: arm joint names for ``/joint_states`` when a Trajectory carries none.
     chunk_size: uncompressed chunk size limit [bytes]; compression: "zstd" | "lz4" | "none".
-    writer: "foxglove" (Foxglove's SDK, ``record/sdk_writer.py``: the default, 10-15% faster in
-        ``benchmarks/bench_mission.py``) or "mcap" (the mcap package with the batched message path,
-        ``record/batch.py``); the same messages either way.
+    writer: "foxglove" (Foxglove's SDK, ``record/sdk_writer.py``: the default, faster in 8 of 9
+        planner runs of ``benchmarks/bench_mission.py``, by 0.5-3.7 points of overhead) or "mcap"
+        (the mcap package with the batched message path, ``record/batch.py``); the same messages
+        either way.
     robot: optional robot model (``interllm.sim.kinematics.RobotKinematics`` or anything with
         ``joint_names``, ``chain`` [(parent, child)], ``link_poses(joints[N, n]) -> (xyz[N, L, 3],
         quat_xyzw[N, L, 4])`` and ``visuals()``): arm link frames on ``/tf`` and the robot's shape on
