@@ -109,8 +109,7 @@ class ObjectsUpdates:
         d = head.deletions.add()
         d.timestamp.FromNanoseconds(t_ns)
         d.type = SceneEntityDeletion.Type.ALL
-        stamp = wire.timestamp(t_ns)
-        stamp = wire.length_delimited(1, stamp)  # SceneEntity.timestamp (1), present also when zero
+        stamp = wire.length_delimited(1, wire.timestamp(t_ns))  # SceneEntity.timestamp (1), present also when zero
         parts = [head.SerializeToString()]
         for oid in sorted(state):
             if state[oid][0] not in self._frames:

@@ -286,7 +286,8 @@ class McapRecorder:
         a /tf message for every sample where something moved: world->base_link when the base pose
         changed, the arm's link frames when the joints changed (both at an action's first sample).
         Frame transforms hold until the next one for the same frame, as in Foxglove and rerun.
-        This is the recorder's hot path: the messages of all samples are built at once."""
+        This is the recorder's hot path: the joint states of all samples are built in one call
+        (``wire.joint_states``), the transforms by refilling templates (``_transforms``)."""
         n = len(t)
         jch = self._channel_proto(JOINT_TOPIC, JointStates)
         tch = self._channel_proto(TF_TOPIC, FrameTransforms)
@@ -431,4 +432,3 @@ class McapRecorder:
             self.close()
         else:
             self.close(status="error", error=f"{exc_type.__name__}: {exc}")
-

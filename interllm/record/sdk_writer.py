@@ -6,8 +6,8 @@ interface as :class:`interllm.record.batch.BatchWriter` (``register_schema``, ``
 
 Each writer has a ``foxglove.Context`` of its own, so channels of one run never reach another run's
 file. Chunks are compressed on the calling thread (``compression_threads=0``), so the bytes do not
-depend on the machine's core count; zstd runs at level 1 (``ZSTD_LEVEL``). The SDK numbers each channel's messages itself; the sequence
-the recorder passes is the same count.
+depend on the machine's core count; zstd runs at level 1 (``ZSTD_LEVEL``). The SDK numbers each
+channel's messages itself; the sequence the recorder passes is the same count.
 """
 
 from __future__ import annotations
