@@ -1,6 +1,6 @@
 # The two commands of the README:  `make repro`  and  `make test`.
 # Both create .venv and install the package with its dependencies (idempotent: a second call
-# installs nothing unless pyproject.toml changed).
+# installs nothing unless pyproject.toml, requirements.lock or the llama.cpp build choice changed).
 VENV ?= .venv
 PYTHON ?= python3
 PY := $(VENV)/bin/python
@@ -9,15 +9,58 @@ PY := $(VENV)/bin/python
 CONSTRAINTS ?= -c requirements.lock
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: install repro test lint bench params clean-cache lock
+# llama-cpp-python compiles llama.cpp at install time. It is built here for one pinned, portable
+# CPU baseline (x86-64: AVX2 + FMA + F16C, no AVX-512 or AMX; see interllm/llama_build.py), into a
+# project-local wheel folder named by the version, the flags and the Python (pip's own wheel cache
+# is keyed by version only and would hand back a native wheel built earlier).
+# `make install LLAMA_NATIVE=1` builds for this CPU instead: faster, but cold-run answers then
+# depend on the CPU, and provenance.json records the choice.
+LLAMA_NATIVE ?= 0
+LLAMA_VERSION := $(shell sed -n 's/^llama_cpp_python==//p' requirements.lock)
+LLAMA_BUILD = $(PYTHON) -m interllm.llama_build --version $(LLAMA_VERSION) --native $(LLAMA_NATIVE)
+LLAMA_KEY := $(shell $(LLAMA_BUILD) key)
+LLAMA_WHEELS := .wheels/llama-cpp-python-$(LLAMA_KEY)
+LLAMA_STAMP := $(VENV)/.llama-$(LLAMA_KEY)
+JOBS := $(shell nproc 2>/dev/null || echo 2)
+
+.PHONY: install install-llama repro test lint bench params clean-cache lock
 
 install: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml requirements.lock
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+$(PY):
+	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet $(CONSTRAINTS) -e '.[dev]'
+
+# The wheel, built once per key (about 5 minutes on 2 cores); written to a partial folder first,
+# so an interrupted build leaves nothing that looks finished.
+$(LLAMA_WHEELS)/.built: | $(PY)
+	@echo "make: building llama-cpp-python $(LLAMA_VERSION) ($$($(LLAMA_BUILD) kind) build, about 5 minutes on 2 cores)"
+	rm -rf $(LLAMA_WHEELS).partial
+	CMAKE_ARGS="$$($(LLAMA_BUILD) cmake-args)" CMAKE_BUILD_PARALLEL_LEVEL=$(JOBS) \
+	  $(PY) -m pip wheel --quiet --no-deps --no-cache-dir --no-binary llama-cpp-python \
+	  'llama-cpp-python==$(LLAMA_VERSION)' -w $(LLAMA_WHEELS).partial
+	touch $(LLAMA_WHEELS).partial/.built
+	rm -rf $(LLAMA_WHEELS) && mv $(LLAMA_WHEELS).partial $(LLAMA_WHEELS)
+
+# Install that wheel (replacing any other llama-cpp-python build) and record which build it is.
+$(LLAMA_STAMP): $(LLAMA_WHEELS)/.built | $(PY)
+	rm -f $(VENV)/.llama-* $(VENV)/.installed
+	$(PY) -m pip install --quiet --force-reinstall --no-deps $(LLAMA_WHEELS)/llama_cpp_python-*.whl
+	$(LLAMA_BUILD) record --wheel $$(ls $(LLAMA_WHEELS)/llama_cpp_python-*.whl) > $(VENV)/llama-build.json.tmp
+	mv $(VENV)/llama-build.json.tmp $(VENV)/llama-build.json
 	touch $@
+
+# Everything else. --only-binary keeps pip from building llama-cpp-python again from source.
+$(VENV)/.installed: pyproject.toml requirements.lock $(LLAMA_STAMP)
+	$(PY) -m pip install --quiet $(CONSTRAINTS) --only-binary llama-cpp-python \
+	  --find-links $(LLAMA_WHEELS) -e '.[dev]'
+	touch $@
+
+# Reinstall the llama.cpp build this Makefile's settings choose (the fix that a model-load check
+# names when the installed build is not the pinned baseline).
+install-llama:
+	rm -f $(LLAMA_STAMP)
+	$(MAKE) install
 
 # Re-pin requirements.lock to what .venv holds now (after a deliberate upgrade; then make repro
 # and commit the new results with it).

@@ -6,6 +6,14 @@ against the same calls on a cold context each time; warm-cache replay calls/s (g
 against the backend's calls/s.
 
     .venv/bin/python benchmarks/bench_llm.py [--m 3] [--regens 2] [--replay-calls 2000]
+
+``--builds`` instead compares the llama.cpp builds in ``.wheels/`` (the pinned baseline of
+``make install``, and the native one when ``make install LLAMA_NATIVE=1`` built it): each wheel
+is unpacked and measured in a child process of its own (prompt and generation tokens/s, one
+thread, best of ``--repeats``, the builds interleaved so machine load hits them alike), and the
+ratio native / pinned is the cost of portability.
+
+    .venv/bin/python benchmarks/bench_llm.py --builds [--repeats 5]
 """
 
 from __future__ import annotations
@@ -15,13 +23,18 @@ import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; in
 # isort: on
 
 import argparse
+import json
+import os
+import subprocess
 import sys
 import tempfile
 import time
+import zipfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without install
 
+from interllm import llama_build  # noqa: E402
 from interllm.config import LLMConfig  # noqa: E402
 from interllm.core.seeding import llm_sample_seed  # noqa: E402
 from interllm.llm import LLMRequest, Message, ScoreRequest, make_client  # noqa: E402
@@ -58,20 +71,92 @@ def command_calls(client, m: int, regens: int, tag: str):
     return calls
 
 
+def build_speed(n_gen: int = 64) -> dict:
+    """Child process: tokens/s of the llama_cpp found first on sys.path (raw API: no project
+    check, so a native build can be measured), one thread, greedy decoding."""
+    import llama_cpp
+
+    from interllm.llm.embedded import assemble_packaged_model
+
+    llm = llama_cpp.Llama(model_path=str(assemble_packaged_model()), n_ctx=2048, n_threads=1,
+                          n_threads_batch=1, verbose=False, seed=0)
+    toks = llm.tokenize(scene_text(14).encode(), add_bos=True, special=True)
+    t0 = time.perf_counter()
+    llm.eval(toks)
+    prompt_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for _ in range(n_gen):
+        llm.eval([llm.sample(temp=0.0)])
+    gen_s = time.perf_counter() - t0
+    info = llama_cpp.llama_print_system_info().decode()
+    llm.close()
+    return {"system_info": info.strip(), "prompt_tps": len(toks) / prompt_s, "gen_tps": n_gen / gen_s,
+            "prompt_tokens": len(toks), "llama_cpp": str(Path(llama_cpp.__file__).parent)}
+
+
+def compare_builds(repeats: int) -> None:
+    """Measure every wheel in .wheels/ in its own child process, interleaved, best of ``repeats``."""
+    root = Path(__file__).resolve().parents[1]
+    wheels = sorted(root.glob(".wheels/llama-cpp-python-*/llama_cpp_python-*.whl"))
+    if not wheels:
+        sys.exit("bench_llm --builds: no wheel under .wheels/; run `make install` (and "
+                 "`make install LLAMA_NATIVE=1` for the native build) first")
+    tmp = Path(tempfile.mkdtemp(prefix="bench_llm_builds_"))
+    dirs = {}
+    for w in wheels:
+        name = w.parent.name.removeprefix("llama-cpp-python-")
+        zipfile.ZipFile(w).extractall(tmp / name)
+        for lib in (tmp / name).rglob("*.so*"):  # zip drops the mode bits
+            lib.chmod(0o755)
+        dirs[name] = tmp / name
+    best: dict[str, dict] = {}
+    for r in range(repeats):
+        for name, d in dirs.items():
+            env = {**os.environ, "PYTHONPATH": f"{d}{os.pathsep}{root}"}
+            out = subprocess.run([sys.executable, __file__, "--child-speed"], env=env, capture_output=True,
+                                 text=True, timeout=600)
+            if out.returncode != 0:
+                print(f"{name}: failed (exit {out.returncode}): {out.stderr.strip()[-300:]}")
+                continue
+            m = json.loads(out.stdout.strip().splitlines()[-1])
+            assert m["llama_cpp"].startswith(str(d)), f"child imported {m['llama_cpp']}, not the wheel {d}"
+            b = best.setdefault(name, m)
+            b["prompt_tps"], b["gen_tps"] = max(b["prompt_tps"], m["prompt_tps"]), max(b["gen_tps"], m["gen_tps"])
+        print(f"repeat {r + 1}/{repeats} done", file=sys.stderr)
+    for name, m in best.items():
+        print(f"{name}: prompt {m['prompt_tps']:.0f} tokens/s ({m['prompt_tokens']} tokens), "
+              f"generation {m['gen_tps']:.1f} tokens/s (best of {repeats}, 1 thread)\n  {m['system_info']}")
+    pinned = [m for n, m in best.items() if "-pinned-" in n]
+    for name, m in best.items():
+        if "-native-" in name and pinned:
+            print(f"native / pinned: prompt {m['prompt_tps'] / pinned[0]['prompt_tps']:.2f}x, "
+                  f"generation {m['gen_tps'] / pinned[0]['gen_tps']:.2f}x")
+
+
 def main() -> None:
+    if "--child-speed" in sys.argv:
+        print(json.dumps(build_speed()))
+        return
     ap = argparse.ArgumentParser()
+    ap.add_argument("--builds", action="store_true", help="compare the llama.cpp builds in .wheels/")
+    ap.add_argument("--repeats", type=int, default=5, help="with --builds: measurements per build")
     ap.add_argument("--m", type=int, default=3)
     ap.add_argument("--regens", type=int, default=2)
     ap.add_argument("--replay-calls", type=int, default=2000)
     ap.add_argument("--threads", type=int, default=1, help="llm.n_threads (2 threads on a loaded 2-core "
                     "machine decode ~100x slower: ggml's thread barriers)")
     a = ap.parse_args()
+    if a.builds:
+        compare_builds(a.repeats)
+        return
     tmp = tempfile.mkdtemp(prefix="bench_llm_")
     cfg = LLMConfig(cache_dir=tmp, n_ctx=4096, n_threads=a.threads)
     be = EmbeddedBackend(cfg)
     t0 = time.perf_counter()
     _ = be.llm
-    print(f"model load: {time.perf_counter() - t0:.2f} s")
+    build = llama_build.describe()
+    print(f"model load: {time.perf_counter() - t0:.2f} s; llama.cpp build: {build.get('kind')} "
+          f"{build.get('simd_features')}")
 
     # 1. raw speed: a cold prompt, then generation
     toks = be.tokenize(scene_text(14))

@@ -247,10 +247,18 @@ def for_results(eff: dict) -> dict:
 
 def environment_record(prov: dict) -> dict:
     """What metrics/environment.json keeps of a run's provenance: the numerics that results depend
-    on, the CPU they were measured on, Python and the package versions."""
+    on, the CPU they were measured on, the llama.cpp build that answered cache misses (see
+    :mod:`interllm.llama_build`), Python and the package versions."""
     num = prov.get("numerics") or {}
+    build = prov.get("llama_cpp_build")
+    llama = ({k: build[k] for k in ("kind", "simd_features", "cmake_args") if k in build}
+             if isinstance(build, dict) else {})
     return {"numerics": for_results(num) if "blas" in num else {}, "cpu": num.get("cpu", {}),
-            "python": prov.get("python"), "packages": prov.get("packages", {})}
+            "llama_cpp": llama, "python": prov.get("python"), "packages": prov.get("packages", {})}
+
+
+def _describe_llama_build(build: dict) -> str:
+    return f"{build.get('kind', 'unknown')} ({', '.join(build.get('simd_features', ())) or 'no SIMD features'})"
 
 
 def describe_environment_change(reference: dict, current: dict) -> list[str]:
@@ -269,6 +277,10 @@ def describe_environment_change(reference: dict, current: dict) -> list[str]:
     if rf != cf:
         out.append(f"CPU SIMD features: here without {sorted(rf - cf) or 'none'}, here also {sorted(cf - rf) or 'none'} "
                    f"(reference CPU: {rc.get('model', '?')}; here: {cc.get('model', '?')})")
+    rl, cl = reference.get("llama_cpp") or {}, current.get("llama_cpp") or {}
+    if rl and cl and rl != cl:
+        out.append(f"llama.cpp build (answers cache misses): reference {_describe_llama_build(rl)}, "
+                   f"here {_describe_llama_build(cl)}")
     if reference.get("python") != current.get("python"):
         out.append(f"Python: reference {reference.get('python')}, here {current.get('python')}")
     rp, cp = reference.get("packages", {}), current.get("packages", {})

@@ -50,6 +50,7 @@ from typing import Optional
 
 import numpy as np
 
+from interllm import llama_build
 from interllm.config import LLMConfig
 from interllm.errors import UserError
 from interllm.io import atomic_write_text
@@ -257,6 +258,13 @@ def _multi_sequence_context(llm, n_seq_max: int) -> None:
     old.close()
 
 
+@functools.cache
+def _check_build_once() -> dict:
+    """:func:`interllm.llama_build.check` once per process, before the first model load: a build
+    the CPU cannot run would crash on the first decode, a native one would move cold answers."""
+    return llama_build.check()
+
+
 @BACKENDS.register("embedded", label="embedded llama.cpp")
 class EmbeddedBackend:
     """llama.cpp in process. Not thread-safe by itself: calls are serialised with a lock."""
@@ -295,6 +303,7 @@ class EmbeddedBackend:
             from llama_cpp import Llama  # lazy: loads the llama.cpp library
 
             t0 = time.perf_counter()
+            _check_build_once()
             self._path = resolve_model_path(self.cfg.model)
             self._llm = Llama(model_path=str(self._path), n_ctx=self.cfg.n_ctx,
                               n_threads=self.cfg.n_threads, n_threads_batch=self.cfg.n_threads,

@@ -9,7 +9,7 @@ import platform
 import subprocess
 from importlib import metadata
 
-from interllm import numerics
+from interllm import llama_build, numerics
 from interllm.config import ExperimentConfig
 from interllm.llm.embedded import EmbeddedBackend
 
@@ -48,18 +48,11 @@ def model_sha256(cfg: ExperimentConfig) -> str:
         return f"unavailable ({type(e).__name__}: {e})"
 
 
-def llama_cpp_system_info() -> str:
-    """The SIMD features llama.cpp was built with (it compiles for the installing machine's CPU,
-    so a cold-cache answer may differ between machines; cached answers do not)."""
-    try:
-        import llama_cpp  # lazy: loads the llama.cpp library, only for an embedded-model run
-
-        return llama_cpp.llama_print_system_info().decode("utf-8", "replace").strip()
-    except Exception as e:  # noqa: BLE001 - optional, diagnostics only
-        return f"unavailable ({type(e).__name__}: {e})"
-
-
 def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None) -> dict:
+    """The run's provenance. ``llama_cpp`` is llama.cpp's own account of its build (its SIMD
+    features); ``llama_cpp_build`` adds which build ``make install`` chose (pinned or native) and
+    its flags: a cold-cache answer depends on them, a cached one does not."""
+    build = llama_build.describe() if cfg.llm.backend == "embedded" else None
     return {
         "config": resolved_config if resolved_config is not None else dataclasses.asdict(cfg),
         "git_commit": git_commit(),
@@ -68,7 +61,8 @@ def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None) -> di
         "model_sha256": model_sha256(cfg),
         "seed": cfg.seed,
         "numerics": numerics.effective(),
-        "llama_cpp": llama_cpp_system_info() if cfg.llm.backend == "embedded" else "not used",
+        "llama_cpp": build["system_info"] if build else "not used",
+        "llama_cpp_build": build or "not used",
     }
 
 
@@ -85,6 +79,7 @@ def for_run_log(prov: dict) -> dict:
     if isinstance(out.get("numerics"), dict):  # the machine-specific part (CPU) stays in provenance.json
         out["numerics"] = numerics.for_results(out["numerics"])
     out.pop("llama_cpp", None)
+    out.pop("llama_cpp_build", None)
     out.pop("llm_probe", None)  # names the server's URL; provenance.json keeps it
     cfg = out.get("config")
     if isinstance(cfg, dict):
