@@ -65,9 +65,9 @@ install-llama:
 # Re-pin requirements.lock to what .venv holds now (after a deliberate upgrade; then make repro
 # and commit the new results with it).
 lock: install
-	{ sed -n '/^#/p' requirements.lock; $(PY) -m pip freeze --exclude-editable | grep -v '^-e'; } > requirements.lock.tmp
+	{ sed -n '/^#/p' requirements.lock; $(PY) -m pip list --format=freeze --exclude-editable --exclude pip --exclude setuptools; } > requirements.lock.tmp
 	@grep -q '^mujoco==' requirements.lock.tmp || { rm -f requirements.lock.tmp; \
-	  echo "make lock: pip freeze listed no mujoco pin; requirements.lock left unchanged" >&2; exit 1; }
+	  echo "make lock: pip listed no mujoco pin; requirements.lock left unchanged" >&2; exit 1; }
 	mv requirements.lock.tmp requirements.lock
 
 # Run the default experiment (the paper's protocol on the embedded model) with DVC, then say

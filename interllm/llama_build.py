@@ -196,14 +196,26 @@ def check() -> dict:
     if "simd_features" not in desc:
         return desc  # the library did not load: the backend reports that itself
     rec = installed_record()
-    found = problems(set(desc["simd_features"]), cpu_flags(), rec.get("kind") if rec else None)
+    flags = cpu_flags()
+    found = problems(set(desc["simd_features"]), flags, rec.get("kind") if rec else None)
     if found:
-        fix = REBUILD_NATIVE if rec and rec.get("kind") == "native" else REBUILD_PINNED
         raise LlamaBuildError(
             f"the installed llama-cpp-python cannot run the embedded model here: {'; '.join(found)}. "
-            f"llama.cpp reports: {desc['system_info']}. Rebuild it with `{fix}` (in the project folder; "
-            f"about 5 minutes), or use a server backend (llm=ollama, llm=openai)")
+            f"llama.cpp reports: {desc['system_info']}. {_fix(flags, rec)} (in the project folder; about "
+            f"5 minutes), or use a server backend (llm=ollama, llm=openai)")
     return desc
+
+
+def _fix(flags: set[str], rec: dict | None) -> str:
+    """The rebuild command for :func:`check`'s message."""
+    base = baseline()
+    lacking = sorted(f for f in base.features if FEATURE_CPU_FLAG[f] not in flags) if base and flags else []
+    if lacking:
+        return (f"This CPU lacks the pinned baseline's {', '.join(lacking)}, so only a build for it runs here "
+                f"(its cold-run answers match the committed ones only approximately): `{REBUILD_NATIVE}`")
+    if rec and rec.get("kind") == "native":
+        return f"Rebuild it for this CPU with `{REBUILD_NATIVE}`, or the portable baseline with `{REBUILD_PINNED}`"
+    return f"Rebuild it with `{REBUILD_PINNED}`"
 
 
 # -- the Makefile's entry point ----------------------------------------------------------------

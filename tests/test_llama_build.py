@@ -52,6 +52,15 @@ def test_check_stops_with_the_rebuild_command(monkeypatch):
         llama_build.check()
 
 
+def test_cpu_without_the_baseline_is_told_to_build_natively(monkeypatch):
+    monkeypatch.setattr(llama_build, "system_info", lambda: "CPU : SSE3 = 1 | SSSE3 = 1 | AVX = 1 | AVX2 = 1 | "
+                        "F16C = 1 | FMA = 1 | BMI2 = 1 | OPENMP = 1 |")
+    monkeypatch.setattr(llama_build, "cpu_flags", lambda: {"pni", "ssse3", "sse4_2", "avx"})  # Sandy Bridge
+    monkeypatch.setattr(llama_build, "machine", lambda: "x86_64")
+    with pytest.raises(LlamaBuildError, match=r"lacks the pinned baseline's AVX2, BMI2, F16C, FMA.*LLAMA_NATIVE=1"):
+        llama_build.check()
+
+
 def test_wheel_key_names_version_flags_and_kind():
     pinned, native = llama_build.build_key("0.3.36", False), llama_build.build_key("0.3.36", True)
     if llama_build.baseline() is not None:
