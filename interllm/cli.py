@@ -30,8 +30,8 @@ def _scene_generate(args) -> int:
     except CatalogError as e:
         print(f"error: --size: {e}", file=sys.stderr)
         return 2
+    out = _out_folder(args.out)
     scene = generate_scene(cfg, 0)
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     from interllm.io import atomic_write_text  # lazy: a command loads only its own code
 
@@ -70,6 +70,7 @@ def _scene_import(args) -> int:
         validate_scene,
     )
 
+    out = _out_folder(args.out)
     report = ImportReport()
     try:
         scene = import_procthor(args.file, report=report)
@@ -77,7 +78,6 @@ def _scene_import(args) -> int:
     except SceneValidationError as e:
         print(f"invalid: {e}", file=sys.stderr)
         return 1
-    out = Path(args.out)
     atomic_write_text(out / "scene.json", scene.to_json())
     lines = report.lines() or ["nothing defaulted, dropped or moved"]
     atomic_write_text(out / "import_report.txt", "\n".join(lines) + "\n")
@@ -191,20 +191,30 @@ def _results_diff(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command; a user-fixable error is one line on stderr and exit status 2."""
-    from interllm.errors import UserError  # lazy: a command loads only its own code
+    from interllm.errors import UserError, output_error  # lazy: a command loads only its own code
 
     try:
         return _main(argv)
     except UserError as e:
         print(f"interllm: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:
+        if (unwritable := output_error(e)) is None:  # a bug: its traceback
+            raise
+        print(f"interllm: error: {unwritable}", file=sys.stderr)  # a full disk, a read-only folder
+        return 2
 
 
-def _set_dotted(d: dict, key: str, value) -> None:
-    *parents, leaf = key.split(".")
-    for k in parents:
-        d = d.setdefault(k, {})
-    d[leaf] = value
+def _out_folder(out: str) -> Path:
+    """The --out folder of a command that writes several files; an existing file there is an error
+    (and is left as it is)."""
+    from interllm.errors import OutputError  # lazy: a command loads only its own code
+
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise OutputError(f"--out {out} is an existing file, not a folder; name a folder for the command's "
+                          f"files (e.g. --out my_scene/); {out} is left as it is")
+    return path
 
 
 def _llm_probe(args) -> int:
@@ -213,16 +223,13 @@ def _llm_probe(args) -> int:
 
     from interllm.config import from_dict  # lazy: a command loads only its own code
     from interllm.llm.backend import make_backend  # lazy: a command loads only its own code
+    from interllm.overrides import apply_overrides  # lazy: a command loads only its own code
 
     params = Path(args.params)
     raw = yaml.safe_load(params.read_text(encoding="utf-8")) or {} if params.is_file() else {}
-    for o in args.overrides:
-        key, sep, value = o.partition("=")
-        if not sep:
-            print(f"interllm llm probe: error: override {o!r} is not key=value (e.g. llm.base_url=http://...)",
-                  file=sys.stderr)
-            return 2
-        _set_dotted(raw, key, yaml.safe_load(value))
+    note = apply_overrides(raw, args.overrides)
+    if note:
+        print(note, file=sys.stderr)
     cfg = from_dict(raw, source=f"{params} and the overrides")
     backend = make_backend(cfg.llm)
     try:

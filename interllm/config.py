@@ -176,6 +176,10 @@ class LLMConfig:
                "the oracle answers from ground truth and is never mixed with a model: use llm=oracle (backend, "
                f"proposal_mode and cost_inference_mode all 'oracle'), got backend={self.backend!r}, "
                f"proposal_mode={self.proposal_mode!r}, cost_inference_mode={self.cost_inference_mode!r}")
+        _check(self.backend == "oracle" or self.oracle_error == 0.0, "llm.oracle_error",
+               f"{self.oracle_error:g} is the error rate of the oracle (llm=oracle), but llm.backend="
+               f"{self.backend!r} asks a model, whose answers it would not change: drop llm.oracle_error, "
+               f"or use llm=oracle llm.oracle_error={self.oracle_error:g}")
 
 
 @dataclass

@@ -1,11 +1,13 @@
 """Shared by the stage entry points: read params.yaml (written by DVC from conf/), validate it,
 set up logging, run the stage body. A user-fixable error (interllm.errors.UserError: a bad config
-key, file, URL or model) is printed as one message without a traceback and exits with status 2;
-under DVC the message also says how to get back the outputs DVC removed before the stage ran."""
+key, file, URL or model; a full disk or read-only folder) is printed as one message without a
+traceback and exits with status 2; under DVC the message also says how to get back the outputs DVC
+removed before the stage ran, when the DVC cache holds them."""
 
 from __future__ import annotations
 
 import argparse
+import configparser
 import logging
 import os
 import signal
@@ -17,11 +19,12 @@ from pathlib import Path
 import yaml
 
 from interllm.config import ConfigError, ExperimentConfig, from_dict
-from interllm.errors import UserError
+from interllm.errors import UserError, output_error
 from interllm.imports_log import log_loaded_modules
 from interllm.lifetime import die_with_parent
 
 ROOT = Path(__file__).resolve().parent.parent
+QUIET_LOGGERS = ("httpx", "httpx2", "httpcore", "openai")  # a line per HTTP request (INFO) unless verbose
 
 
 def load_params(path: Path | None = None) -> tuple[ExperimentConfig, dict]:
@@ -40,14 +43,49 @@ def load_params(path: Path | None = None) -> tuple[ExperimentConfig, dict]:
 
 
 def setup_logging(verbose: bool) -> None:
-    logging.basicConfig(level=logging.DEBUG if verbose else logging.WARNING,
-                        format="%(levelname)s %(name)s: %(message)s")
+    """Warnings only (everything with ``verbose``); the HTTP clients' per-request lines also under a
+    logging set up before (Hydra's job logging: INFO on stdout)."""
+    level = logging.DEBUG if verbose else logging.WARNING
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    for name in QUIET_LOGGERS:
+        logging.getLogger(name).setLevel(level)
+
+
+def dvc_cache_dir(root: Path) -> Path:
+    """The DVC cache folder: ``cache.dir`` of .dvc/config.local or .dvc/config (relative to .dvc/; an
+    experiment's temporary copy points at the main repository's cache there), else .dvc/cache."""
+    found = root / ".dvc" / "cache"
+    for name in ("config", "config.local"):  # the local file wins
+        cp = configparser.ConfigParser(strict=False, interpolation=None)
+        try:
+            cp.read(root / ".dvc" / name, encoding="utf-8")
+        except (configparser.Error, UnicodeDecodeError):
+            continue
+        if cp.has_option("cache", "dir"):
+            found = root / ".dvc" / cp.get("cache", "dir").strip("'\"")
+    return found
+
+
+def cached_outputs(root: Path, stage: str) -> bool:
+    """True when dvc.lock names outputs of ``stage`` and the DVC cache holds each (what `dvc checkout
+    <stage>` needs; DVC 3 keeps them under files/md5/, DVC 2 at the top of the cache)."""
+    try:
+        lock = yaml.safe_load((root / "dvc.lock").read_text(encoding="utf-8")) or {}
+        outs = lock["stages"][stage]["outs"]
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError):
+        return False
+    cache = dvc_cache_dir(root)
+    md5s = [str(o.get("md5") or "") if isinstance(o, dict) else "" for o in outs or []]
+    return bool(md5s) and all(
+        len(h) > 2 and any((base / h[:2] / h[2:]).is_file() for base in (cache / "files" / "md5", cache))
+        for h in md5s)
 
 
 def _dvc_hint(name: str) -> str:
-    """Under DVC (which sets DVC_STAGE), how to restore what DVC deleted before the stage ran."""
+    """Under DVC (which sets DVC_STAGE), how to restore what DVC deleted before the stage ran: only
+    when the DVC cache holds the outputs dvc.lock names (a fresh clone has none to restore)."""
     stage = os.environ.get("DVC_STAGE")
-    if not stage:
+    if not stage or not cached_outputs(ROOT, stage):
         return ""
     return (f"\nnote: DVC removed the previous outputs of stage '{stage}' before running it; "
             f"`dvc checkout {stage}` restores them from the DVC cache (dvc.lock still names them)")
@@ -70,7 +108,10 @@ def stage_main(name: str, body: Callable[[ExperimentConfig, dict, Path], None]) 
     except UserError as e:
         print(f"error: stage '{name}': {e}{_dvc_hint(name)}", file=sys.stderr)
         sys.exit(2)
-    except Exception:
+    except Exception as e:
+        if (unwritable := output_error(e)) is not None:  # a full disk, a read-only folder
+            print(f"error: stage '{name}': {unwritable}{_dvc_hint(name)}", file=sys.stderr)
+            sys.exit(2)
         traceback.print_exc()
         print(f"error: stage '{name}' failed on an unexpected error (the traceback above; please report "
               f"it){_dvc_hint(name)}", file=sys.stderr)

@@ -19,7 +19,7 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
-from interllm.errors import UserError
+from interllm.errors import UserError, output_error
 from interllm.stages.pipeline import run_all
 from interllm.stages.workers import usable_cores
 from pipeline._common import ROOT, setup_logging
@@ -56,6 +56,11 @@ def main(cfg: DictConfig) -> None:
         run(cfg)
     except UserError as e:  # a fixable problem: its message, not a traceback
         print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
+    except Exception as e:
+        if (unwritable := output_error(e)) is None:  # a bug: its traceback
+            raise
+        print(f"error: {unwritable}", file=sys.stderr)  # a full disk, a read-only folder
         sys.exit(2)
 
 

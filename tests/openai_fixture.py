@@ -6,7 +6,9 @@ the request's ``response_format`` schema with the request's seed; echoed complet
 deterministic log-probabilities. ``fault``: ``"429_once"`` (the first chat request gets HTTP 429),
 ``"hang"`` (chat requests never answer; the handler gives up after ``hang_s``), ``"bad_json"``
 (chat answers are not JSON whatever the schema), ``"no_logprobs"`` (completions without
-log-probabilities, like OpenAI's chat models).
+log-probabilities, like OpenAI's chat models), ``"not_json_models"`` / ``"not_json_chat"`` (``/v1/models``
+/ ``/v1/chat/completions`` answer 200 with an HTML page sent as ``content_type``, like a proxy or a web
+server at the wrong URL).
 
 ``llama_server``: llama-cpp-python's own OpenAI-compatible server on the embedded GGUF (real HTTP,
 real grammar-constrained decoding), started in a subprocess and stopped when the test ends.
@@ -43,9 +45,13 @@ def free_port() -> int:
 class FakeOpenAI:
     """Context manager: ``with FakeOpenAI(fault=...) as srv: srv.base_url``."""
 
-    def __init__(self, fault: Optional[str] = None, hang_s: float = 30.0, fingerprint: str = "fp_fixture") -> None:
-        assert fault in (None, "429_once", "hang", "bad_json", "no_logprobs"), fault
+    FAULTS = (None, "429_once", "hang", "bad_json", "no_logprobs", "not_json_models", "not_json_chat")
+
+    def __init__(self, fault: Optional[str] = None, hang_s: float = 30.0, fingerprint: str = "fp_fixture",
+                 content_type: str = "application/json") -> None:
+        assert fault in self.FAULTS, fault
         self.fault, self.hang_s, self.fingerprint = fault, hang_s, fingerprint
+        self.content_type = content_type  # of the page the not_json faults send
         self.requests: list[tuple[str, Any]] = []
         self._429_sent = False
         self._server: Optional[ThreadingHTTPServer] = None
@@ -81,8 +87,18 @@ class FakeOpenAI:
                 self.end_headers()
                 self.wfile.write(data)
 
+            def _send_page(self) -> None:
+                data = b"<html><body><h1>Welcome</h1></body></html>"
+                self.send_response(200)
+                self.send_header("Content-Type", fake.content_type)
+                self.send_header("Content-Length", str(len(data)))
+                self.end_headers()
+                self.wfile.write(data)
+
             def do_GET(self):
                 fake.requests.append(("GET " + self.path, None))
+                if self.path.endswith("/models") and fake.fault == "not_json_models":
+                    return self._send_page()
                 if self.path.endswith("/models"):
                     return self._send(200, {"object": "list", "data": [{"id": MODEL, "object": "model",
                                                                         "owned_by": "fixture", "max_model_len": 4096}]})
@@ -103,6 +119,8 @@ class FakeOpenAI:
                     if fake.fault == "hang":
                         time.sleep(fake.hang_s)
                         return None
+                    if fake.fault == "not_json_chat":
+                        return self._send_page()
                     text = fake._chat_answer(body)
                     return self._send(200, {
                         "id": "chatcmpl-fixture", "object": "chat.completion", "created": 0, "model": MODEL,

@@ -79,17 +79,20 @@ class _Core:
         self.lock = threading.RLock()
         self._model_id: Optional[str] = None
         self.failed_calls = 0  # calls that ended in an error (unparseable after repairs, backend error)
+        self.failed_cached = 0  # of them, failures the cache replayed (stored by an earlier run)
         self.last_failed_answer = ""
 
-    def note_failure(self, answer: str) -> Optional[LLMQualityError]:
-        """Count a failed call; the error to raise instead when the failure share is over its bound."""
+    def note_failure(self, answer: str, cached: bool = False) -> Optional[LLMQualityError]:
+        """Count a failed call (``cached``: a failure the cache replayed); the error to raise instead when
+        the failure share is over its bound."""
         self.failed_calls += 1
+        self.failed_cached += cached
         self.last_failed_answer = answer
         n, bound = self.stats.calls, self.cfg.max_failure_share
         if n >= MIN_CALLS_FOR_EARLY_STOP and self.failed_calls > bound * n:
             return LLMQualityError(failure_share_message(
                 self.backend.name, self.backend.model_name(), n, self.failed_calls, bound, answer,
-                "stopping early"))
+                "stopping early", self.failed_cached, str(self.cache.dir)))
         return None
 
     def model_id(self) -> str:
@@ -354,7 +357,7 @@ class LLMClient:
                   tokens_out=entry["tokens_out"], latency=latency, cached=cached, prompt_tokens_reused=reused,
                   errors=tuple(errors), error=msg, sample_index=request.options.sample_index,
                   answer=str(entry["text"])[:200])
-        stop = core.note_failure(str(entry["text"]))
+        stop = core.note_failure(str(entry["text"]), cached)
         if stop is not None:
             raise stop from LLMOutputError(msg, tuple(errors), entry["text"])
         raise LLMOutputError(msg, tuple(errors), entry["text"])

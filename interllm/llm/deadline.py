@@ -15,6 +15,9 @@ from typing import TypeVar
 from interllm.errors import UserError
 
 T = TypeVar("T")
+# an HTTP client library's own timeout, in units of the deadline: set past it, so that the deadline
+# always notices a hang first and a hang always reads as one
+LIBRARY_TIMEOUT = 2.0
 
 
 class DeadlineExceeded(UserError, TimeoutError):
@@ -39,8 +42,14 @@ def call_with_deadline(fn: Callable[[], T], timeout_s: float, describe: str) -> 
 
     threading.Thread(target=run, daemon=True, name="llm-call").start()
     if not done.wait(timeout_s):
-        raise DeadlineExceeded(f"{describe} did not answer within llm.timeout_s={timeout_s:g} s (a whole-call "
-                               f"deadline); the server is stuck or too slow: check it, or raise llm.timeout_s")
+        raise deadline_exceeded(describe, timeout_s)
     if "error" in box:
         raise box["error"]
     return box["value"]
+
+
+def deadline_exceeded(describe: str, timeout_s: float) -> DeadlineExceeded:
+    """The one message of a call that outlived its deadline (also for a client library's own timeout,
+    so that a hang reads the same whichever timer noticed it first)."""
+    return DeadlineExceeded(f"{describe} did not answer within llm.timeout_s={timeout_s:g} s (a whole-call "
+                            f"deadline); the server is stuck or too slow: check it, or raise llm.timeout_s")

@@ -1,9 +1,10 @@
 """Ollama backend: the official ``ollama`` Python client against ``cfg.host``.
 
 Generation: ``chat(model, messages, format=<JSON schema>, options={temperature, seed, top_p,
-num_predict, num_ctx})``. ``llm.timeout_s`` bounds every read of the HTTP client and the whole
-call (:func:`interllm.llm.deadline.call_with_deadline`); a server error (HTTP 5xx) or a body that
-is not Ollama's JSON is an :class:`OllamaProtocolError` naming the URL.
+num_predict, num_ctx})``. ``llm.timeout_s`` bounds the whole call
+(:func:`interllm.llm.deadline.call_with_deadline`; the HTTP client's own timeout is set past it, so
+a hang always reads as one); a server error (HTTP 5xx) or a body that is not Ollama's JSON is an
+:class:`OllamaProtocolError` naming the URL.
 
 Scoring: Ollama returns log-probs only for tokens it generates (no prompt/echo log-probs), so
 continuation likelihoods cannot be read off. ``score()`` therefore asks the model for a JSON
@@ -22,10 +23,10 @@ import math
 from collections.abc import Sequence
 from typing import Any, Optional
 
-from interllm.config import LLMConfig
+from interllm.config import ConfigError, LLMConfig
 from interllm.errors import UserError
 from interllm.llm.backend import BACKENDS, Generation, Scores
-from interllm.llm.deadline import DeadlineExceeded, call_with_deadline
+from interllm.llm.deadline import LIBRARY_TIMEOUT, DeadlineExceeded, call_with_deadline, deadline_exceeded
 from interllm.llm.types import LLMOptions, Message
 
 
@@ -47,8 +48,8 @@ class OllamaBackend:
 
     def __init__(self, cfg: LLMConfig) -> None:
         if not cfg.model:
-            raise ValueError("config key 'llm.model': the ollama backend needs a model name, "
-                             "e.g. llm.model=llama3.2:3b (see `ollama list`)")
+            raise ConfigError("config key 'llm.model': the ollama backend needs a model name, "
+                              "e.g. llm.model=llama3.2:3b (see `ollama list`)")
         self.cfg = cfg
         self._client = None
         self._digest: Optional[str] = None
@@ -58,7 +59,7 @@ class OllamaBackend:
         if self._client is None:
             import ollama  # lazy: optional dependency, only for this backend
 
-            self._client = ollama.Client(host=self.cfg.host, timeout=self.cfg.timeout_s)
+            self._client = ollama.Client(host=self.cfg.host, timeout=LIBRARY_TIMEOUT * self.cfg.timeout_s)
         return self._client
 
     def model_name(self) -> str:
@@ -101,8 +102,9 @@ class OllamaBackend:
 
         client = self.client
         url = f"{self.cfg.host}{endpoint}"
+        describe = f"the Ollama call to {url} (llm.host)"
         try:
-            return call_with_deadline(lambda: fn(client), self.cfg.timeout_s, f"the Ollama call to {url} (llm.host)")
+            return call_with_deadline(lambda: fn(client), self.cfg.timeout_s, describe)
         except DeadlineExceeded:
             self._client = None  # drop the stuck connection; the next call opens a new one
             raise
@@ -113,9 +115,9 @@ class OllamaBackend:
             raise OllamaProtocolError(f"the Ollama server answered {url} (llm.host) with HTTP {e.status_code}: "
                                       f"{str(e.error)[:200]!r}; check its log (`ollama serve` output) and the "
                                       f"model {self.cfg.model!r}") from None
-        except httpx.TimeoutException as e:
-            raise TimeoutError(f"a read from {url} (llm.host) exceeded llm.timeout_s={self.cfg.timeout_s} s: "
-                               f"{e}; raise llm.timeout_s or check the server") from None
+        except httpx.TimeoutException:  # the library's own timeout, set past the deadline
+            self._client = None
+            raise deadline_exceeded(describe, self.cfg.timeout_s) from None
         except (ConnectionError, httpx.HTTPError, OSError) as e:
             raise self._down(e) from None
         except (ValueError, KeyError, TypeError, AttributeError) as e:  # a 200 whose body is not Ollama's JSON

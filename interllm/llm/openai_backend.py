@@ -12,10 +12,11 @@ own tokens (vLLM and llama-cpp-python's server do; OpenAI's chat models do not):
 continuation is the mean log-probability of the tokens after the prompt text. A server without
 them is refused before the experiment with the mode to use instead.
 
-Faults: every call has a whole-call deadline (``llm.timeout_s``); 429, 5xx and connection errors
-are retried ``llm.max_retries`` times with exponential backoff; an unreachable server or a
-missing model is an error naming the URL and the fix. The API key is read from the environment
-variable named by ``llm.api_key_env`` and never written anywhere.
+Faults: every call has a whole-call deadline (``llm.timeout_s``), which the client library's own
+timeout (set well past it) never beats, so a hang always reads as one; 429, 5xx and connection
+errors are retried ``llm.max_retries`` times with exponential backoff; an unreachable server, a
+missing model or a body that is not the API's JSON is an error naming the URL and the fix. The API
+key is read from the environment variable named by ``llm.api_key_env`` and never written anywhere.
 
 Cache identity (``model_id``): the model name and the fingerprint the server reports
 (``system_fingerprint``), not the URL, so a model moved to another host keeps its cache.
@@ -31,10 +32,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any, Optional, TypeVar
 
-from interllm.config import LLMConfig
+from interllm.config import ConfigError, LLMConfig
 from interllm.errors import UserError
 from interllm.llm.backend import BACKENDS, Generation, Scores
-from interllm.llm.deadline import DeadlineExceeded, call_with_deadline
+from interllm.llm.deadline import LIBRARY_TIMEOUT, DeadlineExceeded, call_with_deadline, deadline_exceeded
 from interllm.llm.schema import check_answer
 from interllm.llm.types import LLMOptions, Message
 
@@ -46,6 +47,11 @@ BACKOFF_S = 0.5  # [s] first retry delay, doubled per retry
 
 class OpenAIUnavailable(UserError, RuntimeError):
     """The server is unreachable, lacks the model, refuses the key, or cannot do what the mode needs."""
+
+
+class OpenAIProtocolError(UserError, RuntimeError):
+    """The server answered, but with a body that is not the OpenAI API's JSON (an HTML page, a proxy's
+    text)."""
 
 
 @dataclass
@@ -83,8 +89,8 @@ class OpenAIBackend:
 
     def __init__(self, cfg: LLMConfig) -> None:
         if not cfg.model:
-            raise ValueError("config key 'llm.model': the openai backend needs a model name, e.g. llm.model=gpt-4o "
-                             "(the name the server lists under /v1/models)")
+            raise ConfigError("config key 'llm.model': the openai backend needs a model name, e.g. "
+                              "llm.model=gpt-4o (the name the server lists under /v1/models)")
         self.cfg = cfg
         self._client = None
         self._schema_mode: Optional[str] = None
@@ -99,22 +105,20 @@ class OpenAIBackend:
 
             key = os.environ.get(self.cfg.api_key_env) or NO_KEY
             self._client = OpenAI(base_url=self.cfg.base_url, api_key=key, max_retries=0,
-                                  timeout=self.cfg.timeout_s)
+                                  timeout=LIBRARY_TIMEOUT * self.cfg.timeout_s)
         return self._client
 
     def _call(self, what: str, fn: Callable[[Any], T], retry: bool = True) -> T:
         """``fn(client)`` with the whole-call deadline, bounded retries (of 5xx too with ``retry``) and
         named errors."""
-        import openai  # lazy: the optional dependency of this backend
-
         url = f"{self.cfg.base_url}{what}"
+        describe = f"the OpenAI-compatible call to {url} (llm.base_url)"
         retries = self.cfg.max_retries
         for attempt in range(retries + 1):
             client = self.client
             self.requests += 1
             try:
-                return call_with_deadline(lambda c=client: fn(c), self.cfg.timeout_s,
-                                          f"the OpenAI-compatible call to {url} (llm.base_url)")
+                result = call_with_deadline(lambda c=client: fn(c), self.cfg.timeout_s, describe)
             except DeadlineExceeded:
                 self._client = None  # drop the stuck connection
                 raise
@@ -122,23 +126,40 @@ class OpenAIBackend:
                 if _retryable(e, server_errors=retry) and attempt < retries:
                     time.sleep(BACKOFF_S * 2 ** attempt)
                     continue
-                if isinstance(e, openai.APIConnectionError):
-                    raise OpenAIUnavailable(
-                        f"the OpenAI-compatible server at {self.cfg.base_url} (llm.base_url) is not reachable "
-                        f"({type(e).__name__}: {e}); start it (e.g. `python -m llama_cpp.server --model "
-                        f"<file.gguf>`, `vllm serve <model>`, `ollama serve`) or fix llm.base_url") from None
-                if isinstance(e, openai.AuthenticationError):
-                    raise OpenAIUnavailable(
-                        f"{url} refused the API key: set the environment variable {self.cfg.api_key_env} "
-                        f"(llm.api_key_env) to a valid key") from None
-                if isinstance(e, openai.NotFoundError):
-                    raise OpenAIUnavailable(
-                        f"{url}: not found ({e}); is llm.model={self.cfg.model!r} served there (see "
-                        f"{self.cfg.base_url}/models)?") from None
-                if isinstance(e, openai.APIStatusError):
-                    raise OpenAIUnavailable(f"{url} answered HTTP {e.status_code}: {str(e)[:300]}") from None
-                raise
+                raise self._named(e, url, describe) from None
+            if isinstance(result, str):  # the library's answer to a body it could not read as JSON
+                raise self._not_json(url, f"got text: {result[:80]!r}")
+            return result
         raise AssertionError("unreachable")  # the loop returns or raises
+
+    def _named(self, e: Exception, url: str, describe: str) -> Exception:
+        """What a failed call raises: an error naming the URL and the fix, or ``e`` itself (a bug)."""
+        import openai  # lazy: the optional dependency of this backend
+
+        if isinstance(e, openai.APITimeoutError):  # the library's own timeout, set past the deadline
+            self._client = None
+            return deadline_exceeded(describe, self.cfg.timeout_s)
+        if isinstance(e, openai.APIConnectionError):
+            return OpenAIUnavailable(
+                f"the OpenAI-compatible server at {self.cfg.base_url} (llm.base_url) is not reachable "
+                f"({type(e).__name__}: {e}); start it (e.g. `python -m llama_cpp.server --model "
+                f"<file.gguf>`, `vllm serve <model>`, `ollama serve`) or fix llm.base_url")
+        if isinstance(e, openai.AuthenticationError):
+            return OpenAIUnavailable(f"{url} refused the API key: set the environment variable "
+                                     f"{self.cfg.api_key_env} (llm.api_key_env) to a valid key")
+        if isinstance(e, openai.NotFoundError):
+            return OpenAIUnavailable(f"{url}: not found ({e}); is llm.model={self.cfg.model!r} served there "
+                                     f"(see {self.cfg.base_url}/models)?")
+        if isinstance(e, openai.APIStatusError):
+            return OpenAIUnavailable(f"{url} answered HTTP {e.status_code}: {str(e)[:300]}")
+        if isinstance(e, (ValueError, KeyError, TypeError, AttributeError)):  # a 200 whose body is not JSON
+            return self._not_json(url, f"{type(e).__name__}: {str(e)[:200]}")
+        return e
+
+    def _not_json(self, url: str, detail: str) -> OpenAIProtocolError:
+        return OpenAIProtocolError(f"the server answered {url} (llm.base_url) with a body that is not the "
+                                   f"OpenAI API's JSON ({detail}); is llm.base_url an OpenAI-compatible "
+                                   f"endpoint (usually ending in /v1)?")
 
     # -- identity -------------------------------------------------------------------------------
     def model_name(self) -> str:

@@ -4,7 +4,8 @@ A complete file (footer and summary present) is read with ``mcap.reader.make_rea
 order. A file without a readable summary (a run killed mid-way, usually ``<run>.mcap.partial``)
 is read with a streaming reader that stops at the last complete chunk; ``RunLog.complete`` is
 then False and ``RunLog.stopped_at`` says where the readable part ends (byte offset, chunk count
-and the last simulated time).
+and the last simulated time). A file its writer finished (the trailing magic is there) that fails a
+checksum on the way is damaged, not truncated: :class:`RunLogCorruptError`.
 
 Trajectory samples (``/joint_states``: base pose and arm joints, exact) are assigned to actions
 in file order: the recorder writes an action's samples right before its ``/actions`` record.
@@ -54,9 +55,16 @@ from interllm.record.topics import (
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
 
+MAGIC = b"\x89MCAP0\r\n"  # an MCAP file starts and, once its writer finished it, ends with these bytes
+
 
 class RunLogFormatError(UserError, ValueError):
     """A readable run log whose content this version cannot interpret (not a truncation)."""
+
+
+class RunLogCorruptError(UserError, ValueError):
+    """A run log its writer finished (it ends with the MCAP magic) that fails its checksums or cannot be
+    decoded: a damaged copy, not a killed run's truncation."""
 
 
 @dataclass
@@ -295,7 +303,7 @@ def _read_complete(path: Path, b: _Builder) -> dict[str, int]:
         if summary is None or summary.statistics is None:
             raise ValueError("no summary section")
         f.seek(-8, os.SEEK_END)
-        if f.read(8) != b"\x89MCAP0\r\n":
+        if f.read(8) != MAGIC:
             raise ValueError("no trailing magic")
         for m in reader.iter_metadata():
             b.metadata_record(m)
@@ -348,6 +356,12 @@ def _read_stream(path: Path, b: _Builder) -> tuple[bool, str | None]:
         error = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
     if footer and not error:
         return True, None
+    if error and data.endswith(MAGIC):  # finished by its writer: damaged since, not cut short
+        raise RunLogCorruptError(
+            f"{path} is damaged at byte {good_offset} of {len(data)} ({error}): its writer finished it, so "
+            f"this is not a killed run's truncation but a changed copy (a disk or transfer fault); restore "
+            f"it from the DVC cache (`dvc checkout missions`) or rerun the missions stage (`dvc repro "
+            f"--force missions`)")
     return False, (f"file ends after byte {good_offset} of {len(data)} ({n_chunks} complete chunks, "
                    f"{len(b.actions)} actions, last simulated t = {b.last_t:.3f} s); "
                    f"the rest is incomplete ({error or 'no footer'})")
@@ -361,7 +375,7 @@ def read_run(path: str | os.PathLike) -> RunLog:
         hint = f"; a killed run left {partial}" if partial.exists() else ""
         raise MissingInputError(f"no MCAP run log at {path}{hint}")
     with open(path, "rb") as f:
-        if f.read(8) != b"\x89MCAP0\r\n":
+        if f.read(8) != MAGIC:
             raise ValueError(f"{path} is not an MCAP file (bad magic); pass a .mcap written by McapRecorder")
     b = _Builder(path)
     try:

@@ -381,9 +381,9 @@ def replay_main(argv: Sequence[str] | None = None) -> int:
     args = ap.parse_args(list(argv) if argv is not None else None)
     try:
         replay(args.path, save=args.save, spawn=args.spawn, serve=args.serve)
-    except ReplayIncomplete as e:
+    except ReplayIncomplete as e:  # 1: some run logs were converted; 2: none could be read
         print(f"interllm replay: error: {e}", file=sys.stderr)
-        return 1
+        return 1 if e.written else 2
     except (UserError, FileNotFoundError, ValueError) as e:
         print(f"interllm replay: error: {e}", file=sys.stderr)
         return 2

@@ -40,7 +40,7 @@ from interllm.io import InputFileError, read_json
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.geometry import r4
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
-from interllm.scene.validate import SceneValidationError
+from interllm.scene.validate import SceneValidationError, looks_like_scene
 
 ROOM_TYPES = {"kitchen": "kitchen", "livingroom": "living_room", "bedroom": "bedroom", "bathroom": "bathroom",
               "diningroom": "dining_room", "office": "study", "study": "study", "laundryroom": "laundry_room"}
@@ -59,6 +59,7 @@ CHILD_ALIASES = {"house_plant": "small_plant"}  # a plant standing on furniture 
 # to them: never floor obstacles. A television that is a child (on a TV stand) is an object.
 WALL_MOUNTED = {"painting", "television", "window", "blinds", "mirror", "light_switch", "towel_holder",
                 "hand_towel_holder", "toilet_paper_hanger", "doorframe", "doorway"}
+SCHEMA = "1.0.0"  # metadata.schema of the houses this importer reads
 DEFAULT_FURNITURE_SIZE = (1.0, 0.6, 0.75)  # [m]
 DEFAULT_OBJECT_SIZE = (0.1, 0.1, 0.1)  # [m]
 CHILD_MARGIN = 0.01  # [m] a child moved onto its parent keeps this far inside the footprint
@@ -139,8 +140,11 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
                     wall_thickness: float = 0.1, report: Optional[ImportReport] = None) -> SceneGraph:
     """Convert a ProcTHOR house (path to JSON or dict) into a SceneGraph (see module docstring).
 
-    report: filled with what was defaulted, dropped or moved (also in ``scene.meta["import_report"]``).
-    Raises ``SceneValidationError`` with the JSON path when a required field is missing or wrong.
+    scene_id: default the house's ``id``, else the file's name (``procthor_house`` for a dict).
+    report: filled with what was defaulted, dropped or moved (also in ``scene.meta["import_report"]``),
+    and a house of another ``metadata.schema`` than 1.0.0.
+    Raises ``SceneValidationError`` with the JSON path when a required field is missing or wrong, or
+    when the file is a scene in this project's format already.
     """
     cat = catalog or load_catalog()
     rep = report if report is not None else ImportReport()
@@ -154,6 +158,14 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
             raise SceneValidationError(source, "$", e.problem) from None
     if not isinstance(d, dict):
         raise SceneValidationError(source, "$", f"a ProcTHOR house is a JSON object, got {type(d).__name__}")
+    if looks_like_scene(d):
+        raise SceneValidationError(source, "$", f"this is already a scene in interllm's format, not a "
+                                                f"ProcTHOR house: use it as it is, "
+                                                f"scene.import_path={source} (check it with "
+                                                f"`interllm scene validate {source}`)")
+    _check_schema_version(d, rep)
+    if scene_id is None and not d.get("id") and not isinstance(house, dict):  # the file's name, not a default
+        scene_id = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(house).stem) or None
     at = ["$"]  # the JSON path being converted, for the message when a field has the wrong type
     try:
         return _convert(d, cat, source, scene_id, wall_thickness, at, rep)
@@ -163,6 +175,16 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
         detail = f"missing field {e}" if isinstance(e, KeyError) else f"{type(e).__name__}: {e}"
         raise SceneValidationError(source, at[0], f"a field has the wrong type or is missing ({detail}); "
                                    f"see ProcTHOR's house format") from None
+
+
+def _check_schema_version(d: dict, rep: ImportReport) -> None:
+    """A house of another ProcTHOR schema than the one this importer reads is converted all the same,
+    with a line in the report (most fields keep their meaning across versions)."""
+    meta = d.get("metadata")
+    version = meta.get("schema") if isinstance(meta, dict) else None
+    if version is not None and str(version) != SCHEMA:
+        rep.add(f"schema {version!r}: not the ProcTHOR schema {SCHEMA} this importer knows; converted as "
+                f"{SCHEMA}: check the result (topdown.png) and the lines above", "$.metadata.schema")
 
 
 class _Ids:

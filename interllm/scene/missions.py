@@ -75,6 +75,15 @@ def start_pose(scene: SceneGraph, furniture_id: str, grid, robot_radius: float,
     return (r4(x), r4(y), r4(math.atan2(f.center[1] - y, f.center[0] - x)))
 
 
+def _more_objects_advice(scene: SceneGraph) -> str:
+    """How to get a scene with more objects: a generated one can be generated larger; an imported one
+    (scene.import_path) needs the objects in its file, or fewer per command."""
+    if scene.meta.get("generator"):
+        return "generate a larger scene"
+    return ("add objects the commands use to the scene file (scene.import_path), or lower "
+            "mission.objects_per_command")
+
+
 def generate_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float = 0.25,
                       grid_resolution: float | None = None, catalog: Catalog | None = None,
                       footprint_radius: float | None = None) -> list[Mission]:
@@ -91,7 +100,7 @@ def generate_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float
     ok = supported_commands(scene, k, cat)
     if not ok:
         raise MissionError(f"scene {scene.id!r} supports no command with {k} objects "
-                           f"(mission.objects_per_command); generate a larger scene")
+                           f"(mission.objects_per_command); {_more_objects_advice(scene)}")
     res = grid_resolution or float(scene.meta.get("grid_resolution", 0.05))
     grid = rasterize(scene, res, robot_radius, doors="true")
     labels, _ = free_components(grid)

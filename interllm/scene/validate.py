@@ -7,8 +7,9 @@ Every failure raises ``SceneValidationError`` whose message reads
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Optional
 
 import jsonschema
 import networkx as nx
@@ -38,12 +39,31 @@ def _json_path(parts) -> str:
 
 
 def validate_dict(d: Any, source: str = "<scene>") -> None:
-    """Structural check of a scene dict against ``scene_json_schema()``."""
+    """Structural check of a scene dict against ``scene_json_schema()``, and every number of its
+    geometry finite (JSON Schema lets the NaN and Infinity that Python's json reads pass)."""
     v = jsonschema.Draft202012Validator(scene_json_schema())
     errors = sorted(v.iter_errors(d), key=lambda e: (list(map(str, e.absolute_path)), e.message))
     if errors:
         e = errors[0]
         raise SceneValidationError(source, _json_path(e.absolute_path), e.message)
+    for key in ("rooms", "walls", "doors", "furniture", "objects"):
+        bad = _non_finite(d.get(key, []), [key])
+        if bad is not None:
+            path, x = bad
+            raise SceneValidationError(source, _json_path(path), f"{x} is not a number a scene can use; "
+                                                                 f"write a finite number (in metres)")
+
+
+def _non_finite(v: Any, at: list) -> Optional[tuple[list, float]]:
+    """(JSON path, value) of the first NaN or infinite number in ``v``, or None."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return at, v
+    items = v.items() if isinstance(v, dict) else enumerate(v) if isinstance(v, list) else ()
+    for k, x in items:
+        bad = _non_finite(x, at + [k])
+        if bad is not None:
+            return bad
+    return None
 
 
 def _index(d: dict, key: str) -> dict[str, int]:
@@ -145,13 +165,29 @@ def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radi
         grid = rasterize(sg, resolution, robot_radius, doors="presumed")
         bad = unreachable(sg, grid, robot_radius)
         if bad:
-            x = bad[0]
-            key, idx = ("rooms", rooms[x]) if x in rooms else ("furniture", furn[x])
-            raise SceneValidationError(source, f"$.{key}[{idx}]",
-                                       f"{x!r} is not reachable by a robot of radius {robot_radius} m on the "
-                                       f"presumed grid (also unreachable: {bad[1:6]}); leave at least "
-                                       f"{2 * robot_radius} m of free floor around it and through its doors")
+            raise _unreachable_error(d, bad, source, robot_radius)
     return sg
+
+
+def _unreachable_error(d: dict, bad: list[str], source: str, robot_radius: float) -> SceneValidationError:
+    """The message for unreachable rooms or furniture (``bad``, ids): furniture outside every room is
+    named as such, not only as unreachable."""
+    rooms, furn = _index(d, "rooms"), _index(d, "furniture")
+    polys = [np.asarray(r["polygon"], dtype=float) for r in d["rooms"]]
+    for x in bad:
+        f = d["furniture"][furn[x]] if x in furn else None
+        if f is not None and not any(_inside(p, np.asarray([f["center"]], dtype=float))[0] for p in polys):
+            return SceneValidationError(source, f"$.furniture[{furn[x]}].center",
+                                        f"furniture {x!r} at {tuple(f['center'])} lies outside every room; "
+                                        f"move it inside its room {f['room']!r} "
+                                        f"($.rooms[{rooms[f['room']]}].polygon)")
+    x = bad[0]
+    key, idx = ("rooms", rooms[x]) if x in rooms else ("furniture", furn[x])
+    others = f" (also unreachable: {bad[1:6]})" if len(bad) > 1 else ""
+    return SceneValidationError(source, f"$.{key}[{idx}]",
+                                f"{x!r} is not reachable by a robot of radius {robot_radius} m on the "
+                                f"presumed grid{others}; leave at least {2 * robot_radius} m of free floor "
+                                f"around it and through its doors")
 
 
 def load_scene_file(path: str | Path, robot_radius: float = 0.25, resolution: float = 0.05,
@@ -176,3 +212,13 @@ def looks_like_procthor(d: Any) -> bool:
     rooms, objs = d.get("rooms"), d.get("objects")
     return (isinstance(rooms, list) and any(isinstance(r, dict) and "floorPolygon" in r for r in rooms)) or \
         (isinstance(objs, list) and any(isinstance(o, dict) and "assetId" in o for o in objs))
+
+
+def looks_like_scene(d: Any) -> bool:
+    """A scene in this project's format: its ``schema_version``, or rooms with a ``polygon`` and a
+    ``furniture`` list."""
+    if not isinstance(d, dict):
+        return False
+    rooms = d.get("rooms")
+    return "schema_version" in d or (isinstance(d.get("furniture"), list) and isinstance(rooms, list)
+                                     and any(isinstance(r, dict) and "polygon" in r for r in rooms))

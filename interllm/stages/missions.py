@@ -18,7 +18,7 @@ from pathlib import Path
 
 from interllm.config import ExperimentConfig
 from interllm.core.records import MissionRecord
-from interllm.errors import StageError, UserError
+from interllm.errors import StageError, UserError, output_error
 from interllm.imports_log import log_loaded_modules
 from interllm.io import read_json, write_json
 from interllm.lifetime import die_with_parent
@@ -111,6 +111,8 @@ def _run_in_worker(job: Job) -> None:
     except UserError as e:
         raise StageError(failed_message(job, e, _WORKER.out_dir)) from None
     except Exception as e:
+        if (unwritable := output_error(e)) is not None:  # a full disk, a read-only folder
+            raise StageError(failed_message(job, unwritable, _WORKER.out_dir)) from None
         raise RuntimeError(failed_message(job, e, _WORKER.out_dir) + "\n" + traceback.format_exc()) from None
     log_loaded_modules("missions")
 
@@ -148,6 +150,8 @@ def _run_in_process(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jo
             except UserError as e:
                 raise StageError(failed_message(job, e, out_dir)) from e
             except Exception as e:
+                if (unwritable := output_error(e)) is not None:  # a full disk, a read-only folder
+                    raise StageError(failed_message(job, unwritable, out_dir)) from None
                 raise RuntimeError(failed_message(job, e, out_dir)) from e
     finally:
         worker.client.close()
@@ -167,16 +171,21 @@ def _run_in_workers(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jo
                                 initargs=(os.getpid(), ids, wcfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
         futures = {pool.submit(_run_in_worker, job): job for job in jobs}
         try:
-            for fut in progress(cf.as_completed(futures), f"missions ({n_workers} workers)", total=len(jobs)):
-                try:
-                    fut.result()
-                except cf.process.BrokenProcessPool as e:  # every pending job sees this, not only the
-                    raise RuntimeError(                      # one whose worker died: name none of them
-                        f"missions stage: a worker process died (killed, out of memory?) while running "
-                        f"{len(jobs)} jobs in {n_workers} workers; rerun with jobs=1 to run them in one "
-                        f"process and see which one fails") from e
+            wait_for_jobs(futures, n_workers)
         except BaseException:
             pool.shutdown(cancel_futures=True)
             raise
         finally:
             merge_call_logs(parts, call_log, jobs)  # also after a failure: the calls made so far
+
+
+def wait_for_jobs(futures: dict, n_workers: int) -> None:
+    """Each job's result as it completes (re-raising its failure); a worker process that died is a
+    :class:`StageError` (every pending job sees it, not only the one whose worker died: it names none)."""
+    for fut in progress(cf.as_completed(futures), f"missions ({n_workers} workers)", total=len(futures)):
+        try:
+            fut.result()
+        except cf.process.BrokenProcessPool:
+            raise StageError(f"missions stage: a worker process died (killed, out of memory?) while running "
+                             f"{len(futures)} jobs in {n_workers} workers; rerun with jobs=1 to run them in "
+                             f"one process and see which one fails (the finished runs are kept)") from None
