@@ -258,6 +258,8 @@ def environment_record(prov: dict) -> dict:
 
 
 def _describe_llama_build(build: dict) -> str:
+    if not build:
+        return "not recorded"
     return f"{build.get('kind', 'unknown')} ({', '.join(build.get('simd_features', ())) or 'no SIMD features'})"
 
 
@@ -278,7 +280,7 @@ def describe_environment_change(reference: dict, current: dict) -> list[str]:
         out.append(f"CPU SIMD features: here without {sorted(rf - cf) or 'none'}, here also {sorted(cf - rf) or 'none'} "
                    f"(reference CPU: {rc.get('model', '?')}; here: {cc.get('model', '?')})")
     rl, cl = reference.get("llama_cpp") or {}, current.get("llama_cpp") or {}
-    if rl and cl and rl != cl:
+    if rl != cl:
         out.append(f"llama.cpp build (answers cache misses): reference {_describe_llama_build(rl)}, "
                    f"here {_describe_llama_build(cl)}")
     if reference.get("python") != current.get("python"):

@@ -42,7 +42,7 @@ def llm_preset(name: str) -> dict:
     if not (CONF_DIR / "llm" / f"{name}.yaml").is_file():
         return {"backend": name}
     from hydra import compose, initialize_config_dir  # lazy: only when a preset is asked for
-    from omegaconf import OmegaConf
+    from omegaconf import OmegaConf  # lazy: with hydra, only when a preset is asked for
 
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         cfg = compose(config_name="config", overrides=[f"llm={name}"])

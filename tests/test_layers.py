@@ -1,7 +1,7 @@
 """The library's layers: every package imports only from the layers below it, no module import
 closes a cycle, and an import inside a function says why (a comment starting with "lazy:").
 
-    base (errors, numerics, core, config, registry, io, progress, lifetime)
+    base (errors, numerics, llama_build, core, config, overrides, registry, io, progress, lifetime)
       -> scene, llm -> planning -> sim -> record -> planners -> metrics -> stages -> cli
 
 Imports are read from the source (ast), so the test needs nothing installed beyond the stdlib.
@@ -17,7 +17,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "interllm"
 LAYERS = [
-    {"errors", "numerics", "core", "config", "registry", "io", "progress", "lifetime", "imports_log", "__init__"},
+    {"errors", "numerics", "llama_build", "core", "config", "overrides", "registry", "io", "progress", "lifetime",
+     "imports_log", "__init__"},
     {"scene", "llm"},
     {"planning"},
     {"sim"},
@@ -28,8 +29,8 @@ LAYERS = [
     {"cli"},
 ]
 # inside the base layer the order matters too (what may import what)
-BASE_ORDER = ["errors", "numerics", "core", "config", "registry", "io", "progress", "lifetime", "imports_log",
-              "__init__"]
+BASE_ORDER = ["errors", "numerics", "llama_build", "core", "config", "overrides", "registry", "io", "progress",
+              "lifetime", "imports_log", "__init__"]
 
 
 def layer_of(part: str) -> int:
