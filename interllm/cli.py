@@ -5,7 +5,7 @@
     interllm scene schema                                # the scene JSON Schema
     interllm scene generate --size paper --seed 0 --out my_scene/
     interllm scene validate my_house.json
-    interllm scene import-procthor house.json --out my_scene/
+    interllm scene import-procthor house.json --out my_scene/ [--strict]
     interllm report --sweeps multirun/                   # report + ablation tables of multiruns
     interllm cache stats [--dir data/llm_cache]
     interllm cache prune --keep 'data/**/llm_calls.jsonl' [--delete]   # drop entries no run used
@@ -61,6 +61,7 @@ def _scene_import(args) -> int:
     from interllm.io import atomic_write_text  # lazy: a command loads only its own code
     from interllm.scene.grid import rasterize  # lazy: a command loads only its own code
     from interllm.scene.importer import (  # lazy: a command loads only its own code
+        ImportOptions,
         ImportReport,
         import_procthor,
     )
@@ -73,7 +74,7 @@ def _scene_import(args) -> int:
     out = _out_folder(args.out)
     report = ImportReport()
     try:
-        scene = import_procthor(args.file, report=report)
+        scene = import_procthor(args.file, report=report, opts=ImportOptions(strict=args.strict))
         validate_scene(scene, source=str(args.file))
     except SceneValidationError as e:
         print(f"invalid: {e}", file=sys.stderr)
@@ -263,6 +264,9 @@ def _main(argv: list[str] | None = None) -> int:
     im = sc.add_parser("import-procthor", help="convert a ProcTHOR house JSON")
     im.add_argument("file")
     im.add_argument("--out", required=True)
+    im.add_argument("--strict", action="store_true",
+                    help="reject a child far off its parent and unreachable furniture (for authors of their "
+                         "own houses) instead of repairing them")
     rp = sub.add_parser("report", help="the report, with the ablation results of Hydra multiruns")
     rp.add_argument("--data", default="data", help="folder with metrics/, scenes/, runs/")
     rp.add_argument("--params", default="params.yaml")

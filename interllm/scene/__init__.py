@@ -5,7 +5,7 @@ from interllm.scene.generator import SceneGenerationError, generate_scene
 from interllm.scene.geometry import free_edges
 from interllm.scene.graph import Command, Door, Furniture, Goal, Mission, Room, SceneGraph, SceneObject, Wall
 from interllm.scene.grid import OccupancyGrid, approach_cells, free_components, largest_component, rasterize
-from interllm.scene.importer import import_procthor
+from interllm.scene.importer import ImportOptions, import_procthor
 from interllm.scene.missions import (
                                      MissionError,
                                      generate_missions,
@@ -24,7 +24,7 @@ __all__ = [
     "SceneGenerationError", "free_edges", "generate_scene", "unreachable",
     "Command", "Door", "Furniture", "Goal", "Mission", "Room", "SceneGraph", "SceneObject", "Wall",
     "OccupancyGrid", "approach_cells", "free_components", "largest_component", "rasterize",
-    "import_procthor",
+    "ImportOptions", "import_procthor",
     "MissionError", "generate_missions", "load_missions", "save_missions", "start_pose", "supported_commands",
     "render_topdown", "scene_json_schema",
     "SceneValidationError", "load_scene_file", "validate_dict", "validate_scene",

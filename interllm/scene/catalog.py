@@ -61,10 +61,11 @@ class CommandSpec:
     paper: bool = False  # one of the paper's three commands
 
     def resolve_targets(self, scene: SceneGraph) -> tuple[str, ...]:
-        """Furniture ids of ``scene`` that satisfy this command's target (sorted)."""
+        """Furniture ids of ``scene`` that satisfy this command's target (sorted); furniture marked
+        unreachable is none."""
         out = []
         for f in scene.furniture.values():
-            if f.category not in self.target_furniture:
+            if f.category not in self.target_furniture or f.unreachable:
                 continue
             if self.target_room_type is not None and scene.rooms[f.room].type != self.target_room_type:
                 continue
@@ -72,10 +73,11 @@ class CommandSpec:
         return tuple(sorted(out))
 
     def valid_objects(self, scene: SceneGraph) -> tuple[str, ...]:
-        """Object ids that satisfy the command and are not already on one of its targets."""
+        """Object ids that satisfy the command, are not already on one of its targets and are not
+        marked unreachable."""
         targets = set(self.resolve_targets(scene))
         return tuple(sorted(o.id for o in scene.objects.values()
-                            if o.category in self.categories and o.furniture not in targets))
+                            if o.category in self.categories and o.furniture not in targets and not o.unreachable))
 
 
 @dataclass(frozen=True)

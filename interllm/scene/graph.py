@@ -22,6 +22,8 @@ from typing import Any
 import networkx as nx
 
 SCHEMA_VERSION = 1
+# Record fields written to the scene file only when set, so that scenes without them keep their bytes.
+OMITTED_WHEN_EMPTY = frozenset({"unreachable"})
 
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
@@ -95,6 +97,7 @@ class Furniture:
     center: Vec2  # footprint centre [m]
     size: Vec3  # footprint x, y extent and height of the top surface [m] (axis-aligned)
     description: str = ""
+    unreachable: str = ""  # why the robot cannot reach it ("": reachable); kept, left out of missions
 
     @property
     def surface_height(self) -> float:
@@ -115,6 +118,7 @@ class SceneObject:
     size: Vec3  # box extents [m]
     usage: str = ""  # semantic usage text ("for eating breakfast")
     placement: str = "front"  # "front" | "deep" | "high" | "clutter": how hard it is to reach
+    unreachable: str = ""  # why the robot cannot reach it ("": reachable); kept, left out of missions
 
 
 class _FurnitureRooms(Mapping):
@@ -223,7 +227,8 @@ class SceneGraph:
     # ---- (de)serialisation -------------------------------------------------------------
     def to_dict(self) -> dict:
         def recs(d):  # the records are flat (str, number and tuple fields): no deep copy as in asdict
-            return [{f.name: getattr(v, f.name) for f in fields(v)} for _, v in sorted(d.items())]
+            return [{f.name: getattr(v, f.name) for f in fields(v)
+                     if f.name not in OMITTED_WHEN_EMPTY or getattr(v, f.name)} for _, v in sorted(d.items())]
 
         return {
             "schema_version": SCHEMA_VERSION,

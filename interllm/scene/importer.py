@@ -25,6 +25,13 @@ reason, never one warning per item):
   children). ``children`` are absolute world positions: each is put on its parent's top surface,
   moved inside the parent's footprint when its box would stick out. Types not in the catalog keep
   their box (or a default one) and their snake_case name as category.
+
+Untidy houses are repaired, not rejected (``interllm.scene.repair``; ``ImportOptions(strict=True)``,
+``interllm scene import-procthor --strict``, rejects them as a house author wants): a parent whose
+child lies off its footprint is checked against its rotation and its ``axisAlignedBoundingBox``; a child
+more than ``CHILD_SLACK`` off its parent goes to the nearest surface, the floor, or is dropped;
+furniture the robot cannot reach is kept, marked unreachable, and left out of missions. The house is
+rejected only when a child cannot be repaired (all listed) or no command of the catalog can be hosted.
 """
 
 from __future__ import annotations
@@ -40,6 +47,15 @@ from interllm.io import InputFileError, read_json
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.geometry import r4
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
+from interllm.scene.repair import (
+    CHILD_SLACK,
+    check_parent_footprint,
+    child_points,
+    footprint_distance,
+    mark_unreachable,
+    place_stray_child,
+    reject_unhostable,
+)
 from interllm.scene.validate import SceneValidationError, looks_like_scene
 
 ROOM_TYPES = {"kitchen": "kitchen", "livingroom": "living_room", "bedroom": "bedroom", "bathroom": "bathroom",
@@ -63,7 +79,6 @@ SCHEMA = "1.0.0"  # metadata.schema of the houses this importer reads
 DEFAULT_FURNITURE_SIZE = (1.0, 0.6, 0.75)  # [m]
 DEFAULT_OBJECT_SIZE = (0.1, 0.1, 0.1)  # [m]
 CHILD_MARGIN = 0.01  # [m] a child moved onto its parent keeps this far inside the footprint
-CHILD_SLACK = 0.5  # [m] a child farther than this outside its parent's footprint is an error, not a nudge
 
 
 @dataclass
@@ -136,15 +151,31 @@ def _seg_key(a, b) -> tuple:
     return tuple(sorted([(round(a[0], 3), round(a[1], 3)), (round(b[0], 3), round(b[1], 3))]))
 
 
+@dataclass(frozen=True)
+class ImportOptions:
+    """How forgiving an import is. strict: reject a child far off its parent, and (in ``validate_scene``)
+    unreachable furniture, as a house author wants; else repair them (``interllm.scene.repair``).
+    robot_radius [m], resolution [m/cell]: the grid on which reachability is judged.
+    objects_per_command: the reachable objects a command needs to be hostable."""
+
+    strict: bool = False
+    robot_radius: float = 0.25
+    resolution: float = 0.05
+    objects_per_command: int = 3
+
+
 def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, scene_id: str | None = None,
-                    wall_thickness: float = 0.1, report: Optional[ImportReport] = None) -> SceneGraph:
+                    wall_thickness: float = 0.1, report: Optional[ImportReport] = None,
+                    opts: Optional[ImportOptions] = None) -> SceneGraph:
     """Convert a ProcTHOR house (path to JSON or dict) into a SceneGraph (see module docstring).
 
     scene_id: default the house's ``id``, else the file's name (``procthor_house`` for a dict).
-    report: filled with what was defaulted, dropped or moved (also in ``scene.meta["import_report"]``),
-    and a house of another ``metadata.schema`` than 1.0.0.
-    Raises ``SceneValidationError`` with the JSON path when a required field is missing or wrong, or
-    when the file is a scene in this project's format already.
+    report: filled with what was defaulted, dropped, moved or repaired (also in
+    ``scene.meta["import_report"]``), and a house of another ``metadata.schema`` than 1.0.0.
+    opts: ``ImportOptions`` (default: repair untidy houses; ``strict=True``: reject them).
+    Raises ``SceneValidationError`` with the JSON path when a required field is missing or wrong, when
+    the file is a scene in this project's format already, or (without strict) when children cannot be
+    repaired (all listed) or no command of the catalog can be hosted.
     """
     cat = catalog or load_catalog()
     rep = report if report is not None else ImportReport()
@@ -168,7 +199,7 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
         scene_id = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(house).stem) or None
     at = ["$"]  # the JSON path being converted, for the message when a field has the wrong type
     try:
-        return _convert(d, cat, source, scene_id, wall_thickness, at, rep)
+        return _convert(d, cat, source, scene_id, wall_thickness, at, rep, opts or ImportOptions())
     except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
         if isinstance(e, SceneValidationError):
             raise
@@ -197,7 +228,7 @@ class _Ids:
 
 
 def _convert(d: dict, cat: Catalog, source: str, scene_id: str | None, wall_thickness: float,
-             at: list[str], rep: ImportReport) -> SceneGraph:
+             at: list[str], rep: ImportReport, opts: ImportOptions) -> SceneGraph:
     ids = _Ids()
     rooms, room_map = _rooms(d, source, at, ids, rep)
     walls_in = _walls(d, source, at, rep)
@@ -212,13 +243,18 @@ def _convert(d: dict, cat: Catalog, source: str, scene_id: str | None, wall_thic
     for (ra, rb), (center, axis, width) in sorted(openings.items()):
         did = ids.new("door")
         doors[did] = Door(did, (ra, rb), center, axis, r4(width), 1.0, "low")
-    furniture, objects, raw_ids = _objects(d, cat, source, at, ids, rep, rooms)
+    furniture, objects, raw_ids, paths = _objects(d, cat, source, at, ids, rep, rooms, opts.strict)
     for k, rid in room_map.items():
         raw_ids[rid] = k
-    return SceneGraph(id=scene_id or str(d.get("id", "procthor_house")), seed=0, rooms=rooms, walls=walls,
-                      doors=doors, furniture=furniture, objects=objects,
-                      meta={"importer": "procthor", "source_ids": dict(sorted(raw_ids.items())),
-                            "import_report": rep.lines()})
+    scene = SceneGraph(id=scene_id or str(d.get("id", "procthor_house")), seed=0, rooms=rooms, walls=walls,
+                       doors=doors, furniture=furniture, objects=objects,
+                       meta={"importer": "procthor", "source_ids": dict(sorted(raw_ids.items()))})
+    if not opts.strict:
+        at[0] = "$.objects"
+        if mark_unreachable(scene, opts.robot_radius, opts.resolution, rep, paths):
+            reject_unhostable(scene, cat, source, opts.objects_per_command)
+    scene.meta["import_report"] = rep.lines()
+    return scene
 
 
 def _rooms(d, source, at, ids, rep) -> tuple[dict[str, Room], dict[str, str]]:
@@ -470,42 +506,70 @@ def _box(o: dict, catalog_size, rep: ImportReport, what: str, default) -> tuple[
     return size[0] * c + size[1] * s_, size[0] * s_ + size[1] * c, size[2]
 
 
-def _objects(d, cat, source, at, ids, rep, rooms):
+def _objects(d, cat, source, at, ids, rep, rooms, strict: bool):
+    """(furniture, objects, {our id: the file's id}, {our id: JSON path}) of ``objects[i]``: the furniture
+    first, then their children (a stray child may go to any furniture). Without ``strict`` a child that
+    cannot be repaired does not stop the others: all of them are listed in one error."""
     furniture: dict[str, Furniture] = {}
     objects: dict[str, SceneObject] = {}
     raw_ids: dict[str, str] = {}
+    paths: dict[str, str] = {}
+    kids: list[tuple[Furniture, dict, str]] = []
     for i, o in enumerate(d.get("objects", []) or []):
         p = f"$.objects[{i}]"
         at[0] = p
-        raw = str(_req(o, "id", source, p))
-        tname = _type_name(o)
-        fcat, known = _category(tname, cat.furniture)
-        if fcat in WALL_MOUNTED:
-            rep.add(f"wall-mounted {fcat}: kept off the floor grid (not imported)", raw)
-            for c in o.get("children", []) or []:
-                rep.add("child of a wall-mounted object: dropped with it", str(c.get("id")))
+        f = _furniture(o, p, cat, source, ids, rep, rooms, strict)
+        if f is None:
             continue
-        pos = _req(o, "position", source, p)
-        fx, fy = _xz(pos, source, f"{p}.position")
-        if not known:
-            rep.add("furniture type not in the catalog: its own name as category", tname)
-        sx, sy, h = _box(o, cat.furniture[fcat].size if known else None, rep, "furniture", DEFAULT_FURNITURE_SIZE)
-        top = float(pos.get("y", h / 2)) + h / 2 if isinstance(o.get("axisAlignedBoundingBox"), dict) else h
-        room = next((rid for rid, r in rooms.items() if _inside(r.polygon, fx, fy)), None)
-        if room is None:
-            raise SceneValidationError(source, f"{p}.position", f"({fx}, {fy}) is inside no room's floorPolygon")
-        fid = ids.new(fcat)
-        raw_ids[fid] = raw
-        desc = cat.furniture[fcat].description if known else ""
-        f = Furniture(fid, fcat, room, (r4(fx), r4(fy)), (r4(sx), r4(sy), r4(top)), desc)
-        furniture[fid] = f
-        for j, c in enumerate(_flatten(o.get("children", []) or [])):
-            cp = f"{p}.children[{j}]"
-            at[0] = cp
-            oid, obj = _child(c, f, cat, source, cp, ids, rep)
-            raw_ids[oid] = str(c.get("id"))
+        furniture[f.id] = f
+        raw_ids[f.id], paths[f.id] = str(o["id"]), p
+        kids += [(f, c, f"{p}.children[{j}]") for j, c in enumerate(_flatten(o.get("children", []) or []))]
+    broken = []
+    for f, c, cp in kids:
+        at[0] = cp
+        try:
+            placed = _child(c, f, cat, source, cp, ids, rep, (furniture, rooms), strict)
+        except SceneValidationError as e:
+            if strict:
+                raise
+            broken.append(f"{e.path}: {e.problem}")
+            continue
+        if placed is not None:
+            oid, obj = placed
+            raw_ids[oid], paths[oid] = str(c.get("id")), cp
             objects[oid] = obj
-    return furniture, objects, raw_ids
+    if broken:
+        raise SceneValidationError(source, "$.objects", f"{len(broken)} child object(s) cannot be repaired: "
+                                   + "; ".join(broken))
+    return furniture, objects, raw_ids, paths
+
+
+def _furniture(o, p, cat, source, ids, rep, rooms, strict: bool) -> Optional[Furniture]:
+    """The furniture of ProcTHOR object ``o`` (at JSON path ``p``), or None for a wall-mounted one.
+    Without ``strict`` its footprint is checked against its children (``repair.check_parent_footprint``)."""
+    raw = str(_req(o, "id", source, p))
+    tname = _type_name(o)
+    fcat, known = _category(tname, cat.furniture)
+    if fcat in WALL_MOUNTED:
+        rep.add(f"wall-mounted {fcat}: kept off the floor grid (not imported)", raw)
+        for c in o.get("children", []) or []:
+            rep.add("child of a wall-mounted object: dropped with it", str(c.get("id")))
+        return None
+    pos = _req(o, "position", source, p)
+    fx, fy = _xz(pos, source, f"{p}.position")
+    if not known:
+        rep.add("furniture type not in the catalog: its own name as category", tname)
+    csize = cat.furniture[fcat].size if known else None
+    sx, sy, h = _box(o, csize, rep, "furniture", DEFAULT_FURNITURE_SIZE)
+    if not strict:
+        points = child_points(_flatten(o.get("children", []) or []))
+        sx, sy = check_parent_footprint(o, p, (fx, fy), (sx, sy), csize, points, rep)
+    top = float(pos.get("y", h / 2)) + h / 2 if isinstance(o.get("axisAlignedBoundingBox"), dict) else h
+    room = next((rid for rid, r in rooms.items() if _inside(r.polygon, fx, fy)), None)
+    if room is None:
+        raise SceneValidationError(source, f"{p}.position", f"({fx}, {fy}) is inside no room's floorPolygon")
+    desc = cat.furniture[fcat].description if known else ""
+    return Furniture(ids.new(fcat), fcat, room, (r4(fx), r4(fy)), (r4(sx), r4(sy), r4(top)), desc)
 
 
 def _flatten(children: list) -> list:
@@ -517,9 +581,11 @@ def _flatten(children: list) -> list:
     return out
 
 
-def _child(c: dict, f: Furniture, cat: Catalog, source: str, cp: str, ids: _Ids, rep: ImportReport
-           ) -> tuple[str, SceneObject]:
-    """An object resting on furniture ``f``: on its top surface, inside its footprint."""
+def _child(c: dict, f: Furniture, cat: Catalog, source: str, cp: str, ids: _Ids, rep: ImportReport,
+           world: tuple[dict, dict], strict: bool) -> Optional[tuple[str, SceneObject]]:
+    """An object resting on furniture ``f``: on its top surface, inside its footprint; without ``strict``
+    a child far off ``f`` goes to another surface, the floor, or is dropped (None). ``world``: (furniture,
+    rooms) of the house."""
     craw = str(_req(c, "id", source, cp))
     tname = _type_name(c)
     ocat, known = _category(tname, cat.objects)
@@ -531,18 +597,26 @@ def _child(c: dict, f: Furniture, cat: Catalog, source: str, cp: str, ids: _Ids,
     sx, sy, sz = _box(c, oc.size if oc else None, rep, "object", DEFAULT_OBJECT_SIZE)
     if "position" in c:
         ox, oy = _xz(c["position"], source, f"{cp}.position")
+        if not (math.isfinite(ox) and math.isfinite(oy)):
+            raise SceneValidationError(source, f"{cp}.position", f"({ox}, {oy}) is not a finite point; write the "
+                                       f"child's world position in metres, or remove the child")
     else:
         rep.add("object without position: put at the centre of its parent", craw)
         ox, oy = f.center
-    x0, y0, x1, y1 = f.footprint
-    if math.hypot(max(x0 - ox, 0.0, ox - x1), max(y0 - oy, 0.0, oy - y1)) > CHILD_SLACK:
+    stray = footprint_distance(f.footprint, ox, oy) > CHILD_SLACK
+    if stray and strict:
         raise SceneValidationError(source, f"{cp}.position",
                                    f"({ox}, {oy}) is not over its parent {f.id!r} (footprint "
                                    f"{tuple(round(v, 3) for v in f.footprint)}, more than {CHILD_SLACK} m away)")
+    if stray:
+        f = place_stray_child(craw, cp, (ox, oy), (sx, sy), world, cat, ids.new, rep)  # type: ignore[assignment]
+        if f is None:
+            return None
+    x0, y0, x1, y1 = f.footprint
     mx = min(sx / 2 + CHILD_MARGIN, (x1 - x0) / 2)
     my = min(sy / 2 + CHILD_MARGIN, (y1 - y0) / 2)
     nx, ny = min(max(ox, x0 + mx), x1 - mx), min(max(oy, y0 + my), y1 - my)
-    if math.hypot(nx - ox, ny - oy) > 0.01:
+    if math.hypot(nx - ox, ny - oy) > 0.01 and not stray:
         rep.add("object not over its parent's top: moved onto it", craw)
     oid = ids.new(ocat)
     high = f.surface_height >= cat.placement.high_min

@@ -107,7 +107,7 @@ def generate_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float
     extra = 0.0 if footprint_radius is None else float(footprint_radius) - robot_radius
     standable = clear_of_obstacles(grid.free, extra, res)
     starts = {}
-    for fid in sorted(scene.furniture):
+    for fid in sorted(f.id for f in scene.furniture.values() if not f.unreachable):
         p = start_pose(scene, fid, grid, robot_radius, labels, standable)
         if p is not None:
             starts[fid] = p

@@ -1,7 +1,8 @@
 """Top-down PNG of a scene (matplotlib, Agg backend): rooms, walls, doors, furniture, objects.
 
-Partly closed doors are drawn red with their leaf; narrow doors orange. The PNG carries no
-date or software metadata, so re-rendering the same scene gives the same bytes on one machine.
+Partly closed doors are drawn red with their leaf; narrow doors orange; furniture marked unreachable
+is hatched red. The PNG carries no date or software metadata, so re-rendering the same scene gives
+the same bytes on one machine.
 """
 
 from __future__ import annotations
@@ -73,8 +74,9 @@ def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[Occup
             ax.plot([leaf[0][0], leaf[1][0]], [leaf[0][1], leaf[1][1]], color="#d62828", lw=3, zorder=4)
     for f in sorted(scene.furniture.values(), key=lambda f: f.id):
         fx0, fy0, fx1, fy1 = f.footprint
-        ax.add_patch(Rectangle((fx0, fy0), fx1 - fx0, fy1 - fy0, facecolor="#a8dadc", edgecolor="#1d3557",
-                               lw=0.6, zorder=2))
+        unreachable = {"hatch": "xx", "facecolor": "#f1c0c0"} if f.unreachable else {"facecolor": "#a8dadc"}
+        ax.add_patch(Rectangle((fx0, fy0), fx1 - fx0, fy1 - fy0, edgecolor="#1d3557", lw=0.6, zorder=2,
+                               **unreachable))
         if labels:
             ax.text(f.center[0], f.center[1], f.id, fontsize=font - 1, ha="center", va="center",
                     color="#1d3557", zorder=6)

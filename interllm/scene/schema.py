@@ -11,6 +11,7 @@ _VEC2 = {"type": "array", "items": _NUM, "minItems": 2, "maxItems": 2}
 _VEC3 = {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}
 _SIZE3 = {"type": "array", "items": _POS, "minItems": 3, "maxItems": 3}
 PLACEMENTS = ("front", "deep", "high", "clutter")
+_WHY = {"type": "string", "description": "why the robot cannot reach it (absent: reachable)"}
 
 
 def _record(props: dict, required: list[str]) -> dict:
@@ -30,11 +31,12 @@ def scene_json_schema() -> dict:
                     "hinge": {"enum": ["low", "high"]}},
                    ["id", "rooms", "center", "axis", "width"])
     furniture = _record({"id": _ID, "category": {"type": "string", "minLength": 1}, "room": _ID,
-                         "center": _VEC2, "size": _SIZE3, "description": {"type": "string"}},
+                         "center": _VEC2, "size": _SIZE3, "description": {"type": "string"},
+                         "unreachable": _WHY},
                         ["id", "category", "room", "center", "size"])
     obj = _record({"id": _ID, "category": {"type": "string", "minLength": 1}, "furniture": _ID,
                    "position": _VEC3, "size": _SIZE3, "usage": {"type": "string"},
-                   "placement": {"enum": list(PLACEMENTS)}},
+                   "placement": {"enum": list(PLACEMENTS)}, "unreachable": _WHY},
                   ["id", "category", "furniture", "position", "size"])
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",

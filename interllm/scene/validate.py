@@ -112,7 +112,8 @@ def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radi
     Checks: JSON Schema; ids unique across rooms/furniture/objects/doors/walls; references
     (furniture.room, objects.furniture, doors.rooms) exist; objects lie over their furniture; rooms
     do not overlap; rooms connected by doors; every room and furniture reachable on the presumed grid (robot_radius [m],
-    resolution [m/cell]) from the largest free region, which must touch every room.
+    resolution [m/cell]) from the largest free region, which must touch every room (furniture marked
+    ``unreachable``, as the ProcTHOR importer keeps it, is exempt).
     """
     d = json.loads(scene.to_json()) if isinstance(scene, SceneGraph) else scene
     validate_dict(d, source)
@@ -163,7 +164,8 @@ def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radi
                                    f"{comps[-1][:5]}; add a door between them")
     if check_reachability:
         grid = rasterize(sg, resolution, robot_radius, doors="presumed")
-        bad = unreachable(sg, grid, robot_radius)
+        marked = {x for x, f in sg.furniture.items() if f.unreachable}  # kept by the importer, said why
+        bad = [x for x in unreachable(sg, grid, robot_radius) if x not in marked]
         if bad:
             raise _unreachable_error(d, bad, source, robot_radius)
     return sg
