@@ -31,12 +31,14 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
-# The wheel, built once per key (about 5 minutes on 2 cores); written to a partial folder first,
-# so an interrupted build leaves nothing that looks finished.
+# The wheel, built once per key (about 8 minutes on 2 cores); written to a partial folder first,
+# so an interrupted build leaves nothing that looks finished. The caller's compiler flags and
+# scikit-build-core settings are dropped: the flags are the baseline's, whoever runs make.
 $(LLAMA_WHEELS)/.built: | $(PY)
-	@echo "make: building llama-cpp-python $(LLAMA_VERSION) ($$($(LLAMA_BUILD) kind) build, about 5 minutes on 2 cores)"
+	@echo "make: building llama-cpp-python $(LLAMA_VERSION) ($$($(LLAMA_BUILD) kind) build, about 8 minutes on 2 cores)"
 	rm -rf $(LLAMA_WHEELS).partial
-	CMAKE_ARGS="$$($(LLAMA_BUILD) cmake-args)" CMAKE_BUILD_PARALLEL_LEVEL=$(JOBS) \
+	env -u CFLAGS -u CXXFLAGS -u SKBUILD_CMAKE_ARGS -u SKBUILD_CMAKE_DEFINE -u FORCE_CMAKE \
+	  CMAKE_ARGS="$$($(LLAMA_BUILD) cmake-args)" CMAKE_BUILD_PARALLEL_LEVEL=$(JOBS) \
 	  $(PY) -m pip wheel --quiet --no-deps --no-cache-dir --no-binary llama-cpp-python \
 	  'llama-cpp-python==$(LLAMA_VERSION)' -w $(LLAMA_WHEELS).partial
 	touch $(LLAMA_WHEELS).partial/.built

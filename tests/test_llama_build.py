@@ -48,6 +48,7 @@ def test_check_stops_with_the_rebuild_command(monkeypatch):
     monkeypatch.setattr(llama_build, "system_info", lambda: AVX512_INFO)
     monkeypatch.setattr(llama_build, "cpu_flags", lambda: SPR_FLAGS)
     monkeypatch.setattr(llama_build, "machine", lambda: "x86_64")
+    monkeypatch.setattr(llama_build, "installed_record", lambda: {"kind": "pinned"})
     with pytest.raises(LlamaBuildError, match=r"AVX512.*`make install-llama`"):
         llama_build.check()
 
@@ -57,6 +58,7 @@ def test_cpu_without_the_baseline_is_told_to_build_natively(monkeypatch):
                         "F16C = 1 | FMA = 1 | BMI2 = 1 | OPENMP = 1 |")
     monkeypatch.setattr(llama_build, "cpu_flags", lambda: {"pni", "ssse3", "sse4_2", "avx"})  # Sandy Bridge
     monkeypatch.setattr(llama_build, "machine", lambda: "x86_64")
+    monkeypatch.setattr(llama_build, "installed_record", lambda: {"kind": "pinned"})
     with pytest.raises(LlamaBuildError, match=r"lacks the pinned baseline's AVX2, BMI2, F16C, FMA.*LLAMA_NATIVE=1"):
         llama_build.check()
 
