@@ -30,10 +30,22 @@ from collections.abc import Iterator
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any, Optional
 
+from interllm.config import LLMConfig
 from interllm.core.seeding import llm_sample_seed
 from interllm.llm.testing import schema_instance
+from interllm.llm.types import LLMRequest, Message
 
 MODEL = "fixture-gpt"
+SCHEMA = {"type": "object", "properties": {"room": {"type": "string", "enum": ["kitchen", "bedroom"]}},
+          "required": ["room"], "additionalProperties": False}
+REQ = LLMRequest(purpose="candidates", messages=(Message("user", "Where is the bed?"),), schema=SCHEMA)
+
+
+def openai_cfg(base_url: str, tmp_path, **kw) -> LLMConfig:
+    """An ``llm=openai`` config in generate mode against ``base_url``, caching under ``tmp_path``."""
+    base = dict(backend="openai", model=MODEL, base_url=base_url, cache_dir=str(tmp_path / "cache"),
+                timeout_s=10.0, proposal_mode="generate", cost_inference_mode="generate")
+    return LLMConfig(**{**base, **kw})
 
 
 def free_port() -> int:

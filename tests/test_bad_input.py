@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from openai_fixture import MODEL, FakeOpenAI  # noqa: E402
+from openai_fixture import MODEL, REQ, SCHEMA, FakeOpenAI, openai_cfg  # noqa: E402
 from procthor_houses import obj, rect, room_walls  # noqa: E402
 
 from interllm.config import ConfigError, LLMConfig, MissionConfig, from_dict  # noqa: E402
@@ -34,15 +34,6 @@ from interllm.scene.missions import MissionError, generate_missions  # noqa: E40
 from interllm.scene.validate import SceneValidationError  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-SCHEMA = {"type": "object", "properties": {"room": {"type": "string", "enum": ["kitchen", "bedroom"]}},
-          "required": ["room"], "additionalProperties": False}
-REQ = LLMRequest(purpose="candidates", messages=(Message("user", "Where is the bed?"),), schema=SCHEMA)
-
-
-def _cfg(base_url: str, tmp_path: Path, **kw) -> LLMConfig:
-    base = dict(backend="openai", model=MODEL, base_url=base_url, cache_dir=str(tmp_path / "cache"),
-                timeout_s=10.0, proposal_mode="generate", cost_inference_mode="generate")
-    return LLMConfig(**{**base, **kw})
 
 
 def _run(module: str, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -74,7 +65,7 @@ def _house(objects: list[dict] | None = None, **top) -> dict:
 def test_1_a_body_that_is_not_json_is_named_by_its_url(tmp_path, fault, endpoint, content_type):
     with FakeOpenAI(fault=fault, content_type=content_type) as srv:
         with pytest.raises(OpenAIProtocolError) as e:
-            OpenAIBackend(_cfg(srv.base_url, tmp_path)).probe()
+            OpenAIBackend(openai_cfg(srv.base_url, tmp_path)).probe()
     assert f"the server answered {srv.base_url}{endpoint} (llm.base_url) with a body that is not the " \
            f"OpenAI API's JSON" in str(e.value)
     assert "is llm.base_url an OpenAI-compatible endpoint (usually ending in /v1)?" in str(e.value)
@@ -101,7 +92,7 @@ def test_2_failures_replayed_from_the_cache_say_so_and_how_to_ask_again(tmp_path
     reqs = [LLMRequest(purpose="candidates", messages=(Message("user", f"Where is thing {i}?"),),
                        schema=SCHEMA) for i in range(20)]
     with FakeOpenAI(fault="bad_json") as srv:  # the first run: every answer is broken, and cached as failed
-        client = make_client(_cfg(srv.base_url, tmp_path, repair_retries=0))
+        client = make_client(openai_cfg(srv.base_url, tmp_path, repair_retries=0))
         for r in reqs:
             with pytest.raises(LLMError):
                 client.complete(r)
@@ -110,7 +101,7 @@ def test_2_failures_replayed_from_the_cache_say_so_and_how_to_ask_again(tmp_path
     stored = _files(cache)
     calls = tmp_path / "llm_calls.jsonl"
     with FakeOpenAI() as srv:  # the server is fixed; the rerun replays the failures
-        client = make_client(_cfg(srv.base_url, tmp_path, repair_retries=0), call_log_path=calls)
+        client = make_client(openai_cfg(srv.base_url, tmp_path, repair_retries=0), call_log_path=calls)
         for r in reqs[:-1]:
             with pytest.raises(LLMError):
                 client.complete(r)
@@ -119,7 +110,7 @@ def test_2_failures_replayed_from_the_cache_say_so_and_how_to_ask_again(tmp_path
         client.close()
         asked = [b for p, b in srv.requests if p.endswith("/chat/completions") and "thing" in json.dumps(b)]
     with pytest.raises(LLMQualityError) as end:  # the end-of-stage check on the call log
-        check_failure_share(calls, _cfg("http://127.0.0.1:1/v1", tmp_path), "candidates stage")
+        check_failure_share(calls, openai_cfg("http://127.0.0.1:1/v1", tmp_path), "candidates stage")
     assert not asked  # the server was not asked: the answers came from the cache
     for e in (early, end):
         msg = str(e.value)
@@ -133,13 +124,13 @@ def test_2_failures_replayed_from_the_cache_say_so_and_how_to_ask_again(tmp_path
 def test_2_without_cached_failures_the_advice_stays_check_the_model(tmp_path):
     with FakeOpenAI(fault="bad_json") as srv:
         calls = tmp_path / "calls.jsonl"
-        cfg = _cfg(srv.base_url, tmp_path, repair_retries=0, cache_mode="off")
+        cfg = openai_cfg(srv.base_url, tmp_path, repair_retries=0, cache_mode="off")
         client = make_client(cfg, call_log_path=calls)
         with pytest.raises(LLMError):
             client.complete(REQ)
         client.close()
     with pytest.raises(LLMQualityError, match=r"\. Check the model and server") as e:
-        check_failure_share(calls, _cfg("http://127.0.0.1:1/v1", tmp_path), "candidates stage")
+        check_failure_share(calls, openai_cfg("http://127.0.0.1:1/v1", tmp_path), "candidates stage")
     assert "LLM cache" not in str(e.value)
 
 
@@ -153,7 +144,7 @@ def _ollama(timeout_s: float):
 
 
 def test_3_the_client_libraries_time_out_only_after_the_deadline(tmp_path):
-    be = OpenAIBackend(_cfg("http://127.0.0.1:9/v1", tmp_path, timeout_s=2.0))
+    be = OpenAIBackend(openai_cfg("http://127.0.0.1:9/v1", tmp_path, timeout_s=2.0))
     assert float(be.client.timeout) > 2.0  # the library's own timeout cannot beat llm.timeout_s
     assert _ollama(2.0).client._client.timeout.read > 2.0
 
@@ -172,7 +163,7 @@ def test_3_a_client_library_timeout_reads_as_the_deadline(tmp_path):
     deadline = ("did not answer within llm.timeout_s=2 s (a whole-call deadline); the server is stuck or too "
                 "slow: check it, or raise llm.timeout_s")
     with pytest.raises(DeadlineExceeded) as e:
-        OpenAIBackend(_cfg("http://127.0.0.1:9/v1", tmp_path, timeout_s=2.0))._call("/chat/completions",
+        OpenAIBackend(openai_cfg("http://127.0.0.1:9/v1", tmp_path, timeout_s=2.0))._call("/chat/completions",
                                                                                   openai_timeout)
     assert str(e.value) == ("the OpenAI-compatible call to http://127.0.0.1:9/v1/chat/completions "
                             f"(llm.base_url) {deadline}")
@@ -183,7 +174,7 @@ def test_3_a_client_library_timeout_reads_as_the_deadline(tmp_path):
 
 def test_3_a_hang_reads_as_a_hang_every_time(tmp_path):
     with FakeOpenAI(fault="hang", hang_s=15) as srv:
-        client = make_client(_cfg(srv.base_url, tmp_path, timeout_s=2.0))
+        client = make_client(openai_cfg(srv.base_url, tmp_path, timeout_s=2.0))
         for _ in range(3):
             t0 = time.monotonic()
             with pytest.raises(DeadlineExceeded, match=r"did not answer within llm\.timeout_s=2 s"):
@@ -497,7 +488,7 @@ def test_6_http_requests_are_not_logged_on_stdout(tmp_path, capsys):
     try:
         setup_logging(False)
         with FakeOpenAI() as srv:
-            OpenAIBackend(_cfg(srv.base_url, tmp_path)).probe()
+            OpenAIBackend(openai_cfg(srv.base_url, tmp_path)).probe()
     finally:
         root.removeHandler(handler)
         root.setLevel(saved[0])

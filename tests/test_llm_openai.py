@@ -13,23 +13,14 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from openai_fixture import MODEL, FakeOpenAI, free_port, llama_server  # noqa: E402
+from openai_fixture import MODEL, REQ, FakeOpenAI, free_port, llama_server, openai_cfg  # noqa: E402
 
 from interllm.config import LLMConfig, from_dict  # noqa: E402
-from interllm.llm import LLMOutputError, LLMRequest, Message, ScoreRequest, make_client  # noqa: E402
+from interllm.llm import LLMOutputError, ScoreRequest, make_client  # noqa: E402
 from interllm.llm.deadline import DeadlineExceeded  # noqa: E402
 from interllm.llm.openai_backend import OpenAIBackend, OpenAIUnavailable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-SCHEMA = {"type": "object", "properties": {"room": {"type": "string", "enum": ["kitchen", "bedroom"]}},
-          "required": ["room"], "additionalProperties": False}
-REQ = LLMRequest(purpose="candidates", messages=(Message("user", "Where is the bed?"),), schema=SCHEMA)
-
-
-def _cfg(base_url: str, tmp_path: Path, **kw) -> LLMConfig:
-    base = dict(backend="openai", model=MODEL, base_url=base_url, cache_dir=str(tmp_path / "cache"), timeout_s=10.0,
-                proposal_mode="generate", cost_inference_mode="generate")
-    return LLMConfig(**{**base, **kw})
 
 
 def _entries(cache: Path) -> list[Path]:
@@ -42,7 +33,7 @@ def _chats(srv) -> list:
 
 def test_a_429_is_retried_and_cached_once(tmp_path):
     with FakeOpenAI(fault="429_once") as srv:
-        client = make_client(_cfg(srv.base_url, tmp_path))
+        client = make_client(openai_cfg(srv.base_url, tmp_path))
         assert client.backend.probe().json_schema == "json_schema"  # its first chat got the 429, then a retry
         assert len(_chats(srv)) == 1 + 1 + 2  # the 429, the retried schema check, the seed check twice
         r = client.complete(REQ)
@@ -53,7 +44,7 @@ def test_a_429_is_retried_and_cached_once(tmp_path):
 
 def test_a_hang_past_timeout_is_a_clear_error_within_the_bound(tmp_path):
     with FakeOpenAI(fault="hang", hang_s=20) as srv:
-        client = make_client(_cfg(srv.base_url, tmp_path, timeout_s=1.0))
+        client = make_client(openai_cfg(srv.base_url, tmp_path, timeout_s=1.0))
         client.backend._schema_mode = "json_schema"
         t0 = time.monotonic()
         with pytest.raises(DeadlineExceeded) as e:
@@ -66,7 +57,7 @@ def test_a_hang_past_timeout_is_a_clear_error_within_the_bound(tmp_path):
 
 def test_invalid_json_despite_the_schema_is_repaired_then_named(tmp_path):
     with FakeOpenAI(fault="bad_json") as srv:
-        client = make_client(_cfg(srv.base_url, tmp_path, repair_retries=2))
+        client = make_client(openai_cfg(srv.base_url, tmp_path, repair_retries=2))
         with pytest.raises(LLMOutputError, match=r"stayed invalid after 2 repair retries .*not valid JSON"):
             client.complete(REQ)
         probe_chats = 4  # the probe's three schema forms (none keeps to the schema) and its seed check twice
@@ -80,7 +71,7 @@ def test_invalid_json_despite_the_schema_is_repaired_then_named(tmp_path):
 
 def test_the_probe_reports_what_the_server_does(tmp_path):
     with FakeOpenAI() as srv:
-        p = OpenAIBackend(_cfg(srv.base_url, tmp_path)).probe()
+        p = OpenAIBackend(openai_cfg(srv.base_url, tmp_path)).probe()
     assert (p.models_listed, p.json_schema, p.logprobs, p.seed_honoured, p.context_length, p.fingerprint) == (
         [MODEL], "json_schema", True, True, 4096, "fp_fixture")
 
@@ -89,13 +80,13 @@ def test_the_cache_key_follows_model_and_fingerprint_not_the_url(tmp_path):
     ids = {}
     for name, fp in (("a", "fp_1"), ("b", "fp_1"), ("c", "fp_2")):
         with FakeOpenAI(fingerprint=fp) as srv:
-            ids[name] = OpenAIBackend(_cfg(srv.base_url, tmp_path)).model_id()
+            ids[name] = OpenAIBackend(openai_cfg(srv.base_url, tmp_path)).model_id()
     assert ids["a"] == ids["b"] != ids["c"]  # a and b differ only by their port
 
 
 def test_score_mode_without_prompt_logprobs_stops_with_the_mode_to_use(tmp_path):
     with FakeOpenAI(fault="no_logprobs") as srv:
-        be = OpenAIBackend(_cfg(srv.base_url, tmp_path, proposal_mode="score"))
+        be = OpenAIBackend(openai_cfg(srv.base_url, tmp_path, proposal_mode="score"))
         with pytest.raises(OpenAIUnavailable, match=r"no prompt log-probabilities .*use llm.proposal_mode=generate "
                                                      r"llm.cost_inference_mode=generate"):
             be.check()
@@ -103,7 +94,7 @@ def test_score_mode_without_prompt_logprobs_stops_with_the_mode_to_use(tmp_path)
 
 def test_score_reads_the_continuations_log_probabilities(tmp_path):
     with FakeOpenAI() as srv:
-        client = make_client(_cfg(srv.base_url, tmp_path, proposal_mode="score"))
+        client = make_client(openai_cfg(srv.base_url, tmp_path, proposal_mode="score"))
         r = client.score(ScoreRequest(purpose="score_objects", prompt="Useful item:", continuations=(" apple", " book")))
     from interllm.core.seeding import llm_sample_seed
 
@@ -113,14 +104,14 @@ def test_score_reads_the_continuations_log_probabilities(tmp_path):
 def test_a_missing_model_names_what_the_server_serves(tmp_path):
     with FakeOpenAI() as srv:
         with pytest.raises(OpenAIUnavailable, match=r"'gpt-9' \(llm.model\) is not served .* it serves \['fixture-gpt'\]"):
-            OpenAIBackend(_cfg(srv.base_url, tmp_path, model="gpt-9")).check()
+            OpenAIBackend(openai_cfg(srv.base_url, tmp_path, model="gpt-9")).check()
 
 
 def test_the_key_is_never_written(tmp_path, monkeypatch):
     secret = "sk-test-0123456789abcdef"
     monkeypatch.setenv("INTERLLM_TEST_KEY", secret)
     with FakeOpenAI() as srv:
-        client = make_client(_cfg(srv.base_url, tmp_path, api_key_env="INTERLLM_TEST_KEY"),
+        client = make_client(openai_cfg(srv.base_url, tmp_path, api_key_env="INTERLLM_TEST_KEY"),
                              call_log_path=tmp_path / "calls.jsonl")
         client.complete(REQ)
         client.close()
