@@ -142,6 +142,16 @@ run_missions(cfg, root + "/scenes", root + "/candidates", root + "/runs")
 """
 
 
+def _cmdline(p) -> str:
+    """A process's command line, or "" when it ended meanwhile (a short-lived child such as git)."""
+    import psutil
+
+    try:
+        return " ".join(p.cmdline())
+    except (psutil.NoSuchProcess, psutil.ZombieProcess, psutil.AccessDenied):
+        return ""
+
+
 def _tree_state(d: Path) -> dict:
     return {str(p): (p.stat().st_size, p.stat().st_mtime_ns) for p in d.rglob("*") if p.is_file()}
 
@@ -157,7 +167,8 @@ def test_a_killed_two_worker_run_leaves_nothing_running(tmp_path):
         assert proc.stdout.readline().strip() == "missions"
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline:  # two workers up and writing run logs
-            workers = [c for c in parent.children(recursive=True) if "resource_tracker" not in " ".join(c.cmdline())]
+            cmds = [_cmdline(c) for c in parent.children(recursive=True)]
+            workers = [c for c in cmds if c and "resource_tracker" not in c]  # "": ended meanwhile
             if len(workers) >= 2 and list((tmp_path / "runs").rglob("*.mcap*")):
                 break
             time.sleep(0.05)
@@ -168,7 +179,7 @@ def test_a_killed_two_worker_run_leaves_nothing_running(tmp_path):
         proc.kill()
         proc.wait(timeout=30)
     gone, alive = psutil.wait_procs(children, timeout=10)
-    assert not alive, f"still running after the parent was killed: {[p.cmdline() for p in alive]}"
+    assert not alive, f"still running after the parent was killed: {[_cmdline(p) for p in alive]}"
     before = _tree_state(tmp_path / "runs")
     time.sleep(1.0)
     assert _tree_state(tmp_path / "runs") == before  # nobody writes into data/runs any more
