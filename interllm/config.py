@@ -24,6 +24,11 @@ CACHE_MODES = ("readwrite", "replay", "off")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean", "prior")  # interllm/planning/costs.py
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
 SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/generator.py, interllm/scene/floor_plans.py)
+OBJECT_DESIGNS = ("graded", "legacy")  # scene.object_design (interllm/scene/generator.py)
+MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stages/feasibility.py)
+ORACLE_COSTS = ("classes", "numeric")  # llm.oracle_costs (interllm/planning/oracle.py)
+COST_ENCODINGS = ("paper", "expected")  # planner.cost_encoding (interllm/planning/costs.py)
+CANDIDATE_DIVERSITY = ("objects", "plans")  # llm.candidate_diversity (interllm/planning/scoring.py)
 POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: the earlier protocol, the paper's (interllm/sim/base_poses.py)
 
 
@@ -57,6 +62,10 @@ class SceneConfig:
     narrow_door_prob: float = 0.15
     partly_closed_door_prob: float = 0.25  # door leaf blocks part of the opening (true map only)
     hard_placement_prob: float = 0.3  # object deep on a wide surface, high shelf, clutter
+    # graded: every requested category gets easy, medium and hard instances in different places, and
+    # each command at least objects_per_command easy ones on reachable furniture; legacy: the
+    # earlier generator (hard placements with hard_placement_prob only)
+    object_design: str = "graded"
     wall_thickness: float = 0.1  # [m]
     wall_height: float = 2.5  # [m]
     grid_resolution: float = 0.05  # [m] per occupancy cell
@@ -69,6 +78,7 @@ class SceneConfig:
         _check(self.n_furniture >= self.n_rooms, "scene.n_furniture", "must be >= scene.n_rooms")
         _check(self.n_objects >= 1, "scene.n_objects", f"must be >= 1, got {self.n_objects}")
         _choice(self.layout, "scene.layout", SCENE_LAYOUTS)
+        _choice(self.object_design, "scene.object_design", OBJECT_DESIGNS)
         _check(0.3 <= self.door_width_min <= self.door_width, "scene.door_width_min",
                f"must be in [0.3 m, scene.door_width], got {self.door_width_min}")
         _check(0 < self.room_size_min <= self.room_size_max, "scene.room_size_min",
@@ -88,6 +98,10 @@ class MissionConfig:
     include_paper_mission: bool = True  # mission 0 is the paper's three commands
     seed: int = 0
     limit_missions: Optional[int] = None  # run only the first N missions (smoke runs)
+    # measured: commands are drawn among those the simulator's measurement says a planner can fulfil
+    # (enough reachable and placeable instances, distinct across the mission); a command that
+    # cannot be filled is reduced or dropped with a log line. off: the earlier, unchecked draw
+    feasibility: str = "measured"
 
     def validate(self) -> None:
         _check(self.n_missions >= 1, "mission.n_missions", f"must be >= 1, got {self.n_missions}")
@@ -96,6 +110,7 @@ class MissionConfig:
                f"must be in [1, 6], got {self.objects_per_command}")
         _check(self.limit_missions is None or self.limit_missions >= 1, "mission.limit_missions",
                "must be null or >= 1")
+        _choice(self.feasibility, "mission.feasibility", MISSION_FEASIBILITY)
 
 
 @dataclass
@@ -136,6 +151,12 @@ class LLMConfig:
     # llm=oracle: the share of the oracle's answers (relevance, target, cost class) replaced by
     # seeded random ones (interllm/planning/oracle.py); read only when llm.backend is oracle
     oracle_error: float = 0.0
+    # llm=oracle: manipulation costs as the paper's three classes (classes), or as the measured
+    # number itself (numeric), to tell the encoding's limit from the model's
+    oracle_costs: str = "classes"
+    # score and oracle modes: objects: the M candidates differ in the objects they take where the
+    # house allows it; plans: they differ in (objects, target) only (the earlier sampler)
+    candidate_diversity: str = "objects"
 
     @property
     def source_label(self) -> str:
@@ -171,6 +192,8 @@ class LLMConfig:
         _check(0 <= self.furniture_beam <= 10000, "llm.furniture_beam",
                f"must be in [0, 10000] (0: all furniture of the expanded rooms), got {self.furniture_beam}")
         _check(0.0 <= self.oracle_error <= 1.0, "llm.oracle_error", f"must be in [0, 1], got {self.oracle_error}")
+        _choice(self.oracle_costs, "llm.oracle_costs", ORACLE_COSTS)
+        _choice(self.candidate_diversity, "llm.candidate_diversity", CANDIDATE_DIVERSITY)
         oracle = [self.backend == "oracle", self.proposal_mode == "oracle", self.cost_inference_mode == "oracle"]
         _check(all(oracle) or not any(oracle), "llm.backend",
                "the oracle answers from ground truth and is never mixed with a model: use llm=oracle (backend, "
@@ -184,7 +207,9 @@ class LLMConfig:
 
 @dataclass
 class PlannerConfig:
-    names: list[str] = field(default_factory=lambda: ["inter_llm", "sayplan", "moma_llm"])  # registered planners to run
+    # registered planners to run; nothing and optimal are the references every table places the
+    # others between (doing nothing; ground-truth costs)
+    names: list[str] = field(default_factory=lambda: ["inter_llm", "sayplan", "moma_llm", "nothing", "optimal"])
     M: int = 3  # plan candidates per command
     max_regenerations: int = 3  # feasibility-repair rounds per candidate (bounded loop)
     nav_estimate: str = "prior"  # one of NAV_ESTIMATES (paper_sum: the paper's equation)
@@ -196,6 +221,13 @@ class PlannerConfig:
     # known costs); false (the earlier protocol): they take every command's plans from the
     # mission-start candidates
     fair_baselines: bool = True
+    # paper: a manipulation estimate is the decoded class (or the known cost); expected: plus the
+    # expected loss of the object, gamma_obj times the chance the action fails outright
+    # (interllm/planning/costs.py)
+    cost_encoding: str = "paper"
+    # expected encoding: the chance that an action labelled "hard" fails outright (a class stands for
+    # a cost range; "hard" covers both slow-but-sure and never-succeeding manipulations)
+    hard_failure_prob: float = 0.5
 
     def validate(self) -> None:
         _check(len(self.names) >= 1, "planner.names", "must list at least one planner")
@@ -207,6 +239,9 @@ class PlannerConfig:
         _check(0 <= self.moma_max_replans <= 20, "planner.moma_max_replans", "must be in [0, 20]")
         _check(1 <= self.sayplan_max_iterations <= 20, "planner.sayplan_max_iterations",
                "must be in [1, 20]")
+        _choice(self.cost_encoding, "planner.cost_encoding", COST_ENCODINGS)
+        _check(0.0 <= self.hard_failure_prob <= 1.0, "planner.hard_failure_prob",
+               f"must be in [0, 1], got {self.hard_failure_prob}")
 
 
 @dataclass
@@ -274,12 +309,16 @@ class SimConfig:
 @dataclass
 class MetricsConfig:
     gamma_obj: float = 100.0  # unfulfilled-object normalising factor γ_obj
+    # the γ_obj values of the report's sensitivity table (m_overall recomputed per slot)
+    gamma_obj_sensitivity: list[float] = field(default_factory=lambda: [100.0, 200.0, 500.0, 1000.0])
     bootstrap_samples: int = 2000
     ci: float = 0.95
     seed: int = 0
 
     def validate(self) -> None:
         _check(self.gamma_obj >= 0, "metrics.gamma_obj", "must be >= 0")
+        _check(len(self.gamma_obj_sensitivity) >= 1 and all(g >= 0 for g in self.gamma_obj_sensitivity),
+               "metrics.gamma_obj_sensitivity", f"must list values >= 0, got {self.gamma_obj_sensitivity}")
         _check(100 <= self.bootstrap_samples <= 100000, "metrics.bootstrap_samples",
                "must be in [100, 100000]")
         _check(0.5 <= self.ci < 1.0, "metrics.ci", f"must be in [0.5, 1), got {self.ci}")
@@ -318,7 +357,7 @@ _GROUPS = {"scene": SceneConfig, "mission": MissionConfig, "llm": LLMConfig, "pl
 
 def _type_name(tp: str) -> str:
     return {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false",
-            "list[str]": "a list of strings"}.get(tp, tp)
+            "list[str]": "a list of strings", "list[float]": "a list of numbers"}.get(tp, tp)
 
 
 def _coerce(value, tp: str, key: str, source: str):
@@ -341,6 +380,9 @@ def _coerce(value, tp: str, key: str, source: str):
         return value
     if base == "list[str]" and isinstance(value, list) and all(isinstance(x, str) for x in value):
         return list(value)
+    if base == "list[float]" and isinstance(value, list) and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) for x in value):
+        return [float(x) for x in value]
     hint = ""
     if base == "list[str]" and isinstance(value, str):
         hint = f"; write a list, e.g. -S '{key}=[{value}]'"

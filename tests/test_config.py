@@ -36,7 +36,8 @@ def test_paper_experiment_is_the_papers_protocol():
     assert (cfg.scene.n_rooms, cfg.scene.n_furniture, cfg.scene.n_objects) == (9, 26, 30)
     assert cfg.scene.n_scenes == 3 and cfg.mission.n_missions == 10
     assert cfg.mission.commands_per_mission == 3 and cfg.mission.include_paper_mission
-    assert cfg.planner.names == ["inter_llm", "sayplan", "moma_llm"] == sorted(PLANNERS.names(), key=["inter_llm", "sayplan", "moma_llm"].index) and cfg.planner.M == 3
+    planners = ["inter_llm", "sayplan", "moma_llm", "nothing", "optimal"]  # the three, then the references
+    assert cfg.planner.names == planners == sorted(PLANNERS.names(), key=planners.index) and cfg.planner.M == 3
     assert cfg.llm.temperature == 0.8 and cfg.llm.backend == "embedded"
     assert (cfg.sim.gamma_nav, cfg.sim.gamma_man, cfg.metrics.gamma_obj) == (10, 100, 100)
 
@@ -44,7 +45,7 @@ def test_paper_experiment_is_the_papers_protocol():
 def test_quick_is_one_scene_one_mission_all_planners():
     cfg = OmegaConf.to_object(compose(["experiment=quick"]))
     assert cfg.scene.n_scenes == 1 and cfg.mission.n_missions == 1
-    assert cfg.planner.names == ["inter_llm", "sayplan", "moma_llm"]
+    assert cfg.planner.names == ["inter_llm", "sayplan", "moma_llm", "nothing", "optimal"]
 
 
 @pytest.mark.parametrize("override, key, hint", [

@@ -1,7 +1,7 @@
 """Planners behind one registry (``PLANNERS``, filled by each planner's decorator):
 ``PLANNERS.get(name)()`` -> a planner with ``run_command(command, ctx)``."""
 
-from interllm.planners import inter_llm, moma_llm, sayplan  # noqa: F401  (each registers its planner)
+from interllm.planners import inter_llm, moma_llm, nothing, optimal, sayplan  # noqa: F401  (each registers its planner)
 from interllm.planners.base import PLANNERS, CommandResult, Planner
 from interllm.planners.inter_llm import InterLLMPlanner
 from interllm.planners.moma_llm import MoMaLLMPlanner

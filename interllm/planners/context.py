@@ -19,9 +19,9 @@ from interllm.core.records import CostInference
 from interllm.core.seeding import planning_seed
 from interllm.llm.types import LLMRequest, LLMResponse, ScoreRequest, ScoreResponse
 from interllm.planners.world_view import WorldView
-from interllm.planning.costs import decode_cost, encode_cost
+from interllm.planning.costs import encode_cost
 from interllm.planning.memory import KnownCosts
-from interllm.planning.proposers import Exclusions, Proposer
+from interllm.planning.proposers import Exclusions, Proposer, estimate_of, success_rate_of
 from interllm.scene.graph import Command, Mission
 
 LLM_TOPIC = "/llm/calls"
@@ -63,6 +63,7 @@ class PlannerContext:
     planner: str
     seed_base: int = 0  # llm.seed: every planner seed derives from it
     base_speed: float = 0.5  # [m/s] sim.base_speed, for the cost of a presumed path without history
+    gamma_obj: float = 100.0  # metrics.gamma_obj: what losing an object costs (planner.cost_encoding=expected)
     initial_candidates: dict[str, list[Plan]] = field(default_factory=dict)  # command id -> M plans
     delivered: set[str] = field(default_factory=set)  # objects delivered by earlier commands
     command_delivered: list[str] = field(default_factory=list)  # delivered by the current command
@@ -103,10 +104,16 @@ class PlannerContext:
         label = self.proposer.costs.infer(action, self.world.scene, self.memory,
                                           seed_parts=(self.mission.id, command.id, len(self.memory)),
                                           context=self.labels(command))
+        estimate = estimate_of(self.proposer.costs, action, label)
         if truth is None:
-            return CostInference(str(action), label, decode_cost(label))
-        return CostInference(str(action), label, decode_cost(label), encode_cost(truth.cost), float(truth.cost),
+            return CostInference(str(action), label, estimate)
+        return CostInference(str(action), label, estimate, encode_cost(truth.cost), float(truth.cost),
                              float(truth.success_rate))
+
+    def answered_success_rate(self, action: Action, label: str) -> float | None:
+        """The success rate the proposer's cost answer ``label`` for ``action`` carries besides its class
+        (only the numeric oracle's does), or None."""
+        return success_rate_of(self.proposer.costs, action, label)
 
     def candidates_for(self, command: Command) -> list[Plan]:
         return list(self.initial_candidates.get(command.id, []))

@@ -10,7 +10,8 @@ Per command:
    navigate (from the robot's pose for the first one, else from the anchor of the previous
    furniture, via ``world.presumed_path``) compared with every navigated path (P°); manipulation
    costs inferred by the LLM from the known ones (an exact (action, state) already measured uses
-   its known cost); ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid/N_man;
+   its known cost; ``planner.cost_encoding=expected`` adds the expected loss of the object,
+   ``planning.costs.expected_failure_cost``); ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid/N_man;
 4. execute the argmin action by action (``world.execute``), updating C^known with every result;
    a failed action skips the rest of that object's actions (see ``PlannerContext.execute_plan``).
 """
@@ -27,9 +28,10 @@ from interllm.planners.repair import check_and_repair
 from interllm.planning.costs import (
     CostEstimate,
     PlanEstimate,
-    decode_cost,
     encode_cost,
     estimate_navigation,
+    expected_failure_cost,
+    failure_chance,
     plan_total,
     unknown_manipulation_estimate,
 )
@@ -72,26 +74,40 @@ class InterLLMPlanner:
                 prev = a.furniture
                 state = apply_effects(a, state, world.scene.furniture_rooms)
                 continue
-            known = mem.manipulation_cost(a, state)
-            if known is not None:
-                man.append(CostEstimate(str(a), a.kind, known, "known", encode_cost(known), True))
-            else:
-                lk = (str(a), state.describe())
-                if lk not in labels:
-                    inference = ctx.infer_cost(a, command)
-                    labels[lk] = inference.predicted
-                    result.cost_inferences.append(inference)
-                lab = labels[lk]
-                if lab == "unknown" and cfg.nav_estimate == "prior":  # no novelty bias for manipulation either
-                    man.append(CostEstimate(str(a), a.kind, unknown_manipulation_estimate(a.kind, mem), "prior",
-                                            lab, True))
-                else:
-                    man.append(CostEstimate(str(a), a.kind, decode_cost(lab), "llm", lab, lab != "unknown"))
+            man.append(self._manipulation_estimate(a, state, command, ctx, labels, result))
             if prev is None:
                 prev = state.at_furniture
             state = apply_effects(a, state, world.scene.furniture_rooms)
         total = plan_total([e.estimate for e in nav], [e.estimate for e in man], [e.valid for e in man])
         return PlanEstimate(total, nav, man)
+
+    def _manipulation_estimate(self, a, state: State, command: Command, ctx: PlannerContext, inferences: dict,
+                               result: CommandResult) -> CostEstimate:
+        """ĉ_man of one pickup or place in ``state``: its known cost when the (action, state) pair was
+        measured, else the LLM's inferred class decoded (once per pair; ``inferences`` memoises),
+        with ``planner.cost_encoding=expected`` plus the expected loss of the object."""
+        cfg, mem = ctx.cfg, ctx.memory
+        rec = mem.manipulation_record(a, state)
+        if rec is not None:
+            est = CostEstimate(str(a), a.kind, rec.cost, "known", encode_cost(rec.cost), True)
+            p_fail = failure_chance(est.label, cfg.hard_failure_prob, known_failed=rec.failed)
+        else:
+            key = (str(a), state.describe())
+            if key not in inferences:
+                inference = ctx.infer_cost(a, command)
+                inferences[key] = inference
+                result.cost_inferences.append(inference)
+            inf = inferences[key]
+            lab = inf.predicted
+            if lab == "unknown" and cfg.nav_estimate == "prior":  # no novelty bias for manipulation either
+                est = CostEstimate(str(a), a.kind, unknown_manipulation_estimate(a.kind, mem), "prior", lab, True)
+            else:
+                est = CostEstimate(str(a), a.kind, inf.estimate, "llm", lab, lab != "unknown")
+            p_fail = failure_chance(lab, cfg.hard_failure_prob,
+                                    measured_sr=ctx.answered_success_rate(a, lab))
+        if cfg.cost_encoding == "expected":
+            est.estimate = expected_failure_cost(est.estimate, p_fail, ctx.gamma_obj)
+        return est
 
     # ---- one command --------------------------------------------------------------------
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:

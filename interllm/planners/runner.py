@@ -41,7 +41,8 @@ def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_c
         raise ValueError(f"mission {mission.id!r} belongs to scene {mission.scene_id!r}, not {world.scene.id!r}")
     ctx = PlannerContext(world=world, proposer=None, memory=KnownCosts(), recorder=recorder,  # type: ignore[arg-type]
                          cfg=cfg.planner, mission=mission, planner=planner_name, seed_base=cfg.llm.seed,
-                         base_speed=cfg.sim.base_speed, initial_candidates=candidates_from_json(initial_candidates))
+                         base_speed=cfg.sim.base_speed, gamma_obj=cfg.metrics.gamma_obj,
+                         initial_candidates=candidates_from_json(initial_candidates))
     observed = client.with_context(planner=planner_name, scene=world.scene.id, mission=mission.id) \
         .with_observer(ctx.on_llm_call)
     ctx.proposer = make_proposer(observed, cfg.llm, ground_truth=world)

@@ -16,6 +16,12 @@
       cost of the known manipulations of its kind instead of leaving it out.
   With no known navigation at all (the first command) every mode falls back to the presumed
   path's own cost c_nav with cc = 0: t = length/base_speed [s], d = length [m] (turn time ignored).
+- ``expected_failure_cost`` (``planner.cost_encoding=expected``, our option; the paper's encoding is
+  the default): a manipulation's estimate plus γ_obj times the chance it fails outright, so a pickup
+  that can never succeed weighs what losing the object costs. The chance: 1 for a known action whose
+  every execution failed, 0 for any other known one; for an inferred class, ``hard_failure_prob`` for
+  "hard" (the class spans slow-but-sure and never-succeeding actions) and 0 for the others; for the
+  numeric oracle, 1 when the measured success rate is 0.
 - ``plan_total``: ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid/N_man, N_valid = number of manipulation
   estimates that are not ``unknown``; 0/0 is defined as 0 (a plan without manipulations).
 """
@@ -127,6 +133,23 @@ def unknown_manipulation_estimate(kind: str, known: KnownCosts) -> float:
     same = [r.cost for r in known.maned if r.action.kind == kind]
     pool = same or [r.cost for r in known.maned]
     return float(np.mean(pool)) if pool else DECODE["medium"]
+
+
+def failure_chance(label: str, hard_failure_prob: float, known_failed: Optional[bool] = None,
+                   measured_sr: Optional[float] = None) -> float:
+    """The chance [0, 1] that a manipulation fails outright, as ``expected_failure_cost`` reads it
+    (module docstring): from a known record (``known_failed``), else a measured success rate, else
+    the class ``label``."""
+    if known_failed is not None:
+        return 1.0 if known_failed else 0.0
+    if measured_sr is not None:
+        return 1.0 if measured_sr <= 0.0 else 0.0
+    return float(hard_failure_prob) if str(label).strip().lower() == "hard" else 0.0
+
+
+def expected_failure_cost(estimate: float, p_fail: float, gamma_obj: float) -> float:
+    """ĉ + p_fail · γ_obj [cost units]: the estimate with the expected loss of the object."""
+    return float(estimate) + float(p_fail) * float(gamma_obj)
 
 
 def plan_total(nav_estimates: Sequence[float], man_estimates: Sequence[float],

@@ -42,6 +42,7 @@ class ManRecord:
     cost: float  # c^maned (fused)
     count: int = 1
     placement: Optional[Placement] = None  # where the object was when measured (llm.placement_attributes)
+    failed: bool = False  # every execution of it failed (planner.cost_encoding=expected reads it)
 
     def to_dict(self) -> dict:
         d = {"action": self.action.to_dict(), "state": self.state, "cost": float(self.cost), "count": self.count}
@@ -83,13 +84,16 @@ class KnownCosts:
         return rec
 
     def add_manipulation(self, action: Action, state: State, cost: float,
-                         placement: Optional[Placement] = None) -> ManRecord:
+                         placement: Optional[Placement] = None, failed: bool = False) -> ManRecord:
+        """Add one manipulation cost c̃ [cost units]; fuse if the pair is known. ``failed``: this
+        execution failed outright (the record stays ``failed`` while every execution did)."""
         key = (str(action), state.describe())
         old = self._man.get(key)
         if old is None:
-            rec = ManRecord(action, key[1], float(cost), placement=placement)
+            rec = ManRecord(action, key[1], float(cost), placement=placement, failed=bool(failed))
         else:
-            rec = ManRecord(action, key[1], (float(cost) + old.cost) / 2.0, old.count + 1, old.placement or placement)
+            rec = ManRecord(action, key[1], (float(cost) + old.cost) / 2.0, old.count + 1, old.placement or placement,
+                            old.failed and bool(failed))
         self._man[key] = rec
         return rec
 
@@ -104,11 +108,15 @@ class KnownCosts:
             if path is None or len(path) == 0:
                 return None
             return self.add_navigation(a, state_before, path, result.cost)
-        return self.add_manipulation(a, state_before, result.cost, placement)
+        return self.add_manipulation(a, state_before, result.cost, placement, failed=not result.success)
 
     def manipulation_cost(self, action: Action, state: State) -> Optional[float]:
-        rec = self._man.get((str(action), state.describe()))
+        rec = self.manipulation_record(action, state)
         return None if rec is None else rec.cost
+
+    def manipulation_record(self, action: Action, state: State) -> Optional[ManRecord]:
+        """The known record of (action, state), or None."""
+        return self._man.get((str(action), state.describe()))
 
     def to_dict(self) -> dict:
         return {"naved": [r.to_dict() for r in self.naved], "maned": [r.to_dict() for r in self.maned]}

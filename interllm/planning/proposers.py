@@ -28,6 +28,7 @@ from interllm.config import LLMConfig
 from interllm.core.actions import Action, Plan, State
 from interllm.llm.types import LLMClientProtocol
 from interllm.planning import generation, oracle, scoring
+from interllm.planning.costs import decode_cost
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
 from interllm.registry import Registry
@@ -64,7 +65,24 @@ class PlanProposer(Protocol):
 class CostInferrer(Protocol):
     def infer(self, action: Action, scene: SceneGraph, known: KnownCosts, *, seed_parts: Sequence[Any],
               context: tuple) -> str:
-        """The cost class of ``action``: easy | medium | hard | unknown."""
+        """The cost class of ``action``: easy | medium | hard | unknown.
+
+        An inferrer may also have ``value(action, label) -> float``, the estimate its answer stands
+        for, and ``measured_success_rate(action, label) -> float | None`` (the numeric oracle);
+        without them the estimate is f_de(label) and only the class is known (``estimate_of``)."""
+
+
+def success_rate_of(costs: CostInferrer, action: Action, label: str) -> Optional[float]:
+    """The success rate ``costs``' answer carries besides its class (the numeric oracle's), or None."""
+    rate = getattr(costs, "measured_success_rate", None)
+    return None if rate is None else rate(action, label)
+
+
+def estimate_of(costs: CostInferrer, action: Action, label: str) -> float:
+    """The estimate [cost units] of ``costs``' answer ``label`` for ``action``: its ``value`` when it has
+    one, else f_de(label)."""
+    value = getattr(costs, "value", None)
+    return float(value(action, label)) if value is not None else decode_cost(label)
 
 
 PLAN_PROPOSERS: Registry = Registry("proposal mode", "llm.proposal_mode")
@@ -111,7 +129,7 @@ class ScorePlans:
     def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
         return scoring.propose_by_scores(self.scores(scene, command, known, context), scene, state, n_objects,
                                          n_plans, self.cfg.plan_sampling_temperature, seed, exclude.objects,
-                                         exclude.targets)
+                                         exclude.targets, self.cfg.candidate_diversity)
 
     def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
                context):
@@ -170,6 +188,20 @@ class OracleCosts:
                                "with make_proposer(client, cfg, ground_truth=world)")
         return oracle.oracle_cost_label(self.truth.measure_manipulation(action), self.cfg, *oracle.where(context),
                                         *seed_parts, str(action))
+
+    def value(self, action: Action, label: str) -> float:
+        """The estimate ``label`` (this inferrer's answer for ``action``) stands for: the measured cost
+        with ``llm.oracle_costs=numeric`` (``oracle.oracle_cost_value``), else f_de(label)."""
+        return oracle.oracle_cost_value(self.truth.measure_manipulation(action) if self.truth else None, label,
+                                        self.cfg)
+
+    def measured_success_rate(self, action: Action, label: str) -> Optional[float]:
+        """With ``llm.oracle_costs=numeric`` and a true answer: the measured success rate behind it (what
+        the expected-cost encoding reads); else None (the class alone is known)."""
+        m = self.truth.measure_manipulation(action) if self.truth else None
+        if self.cfg.oracle_costs != "numeric" or m is None or label != oracle.encode_cost(m.cost):
+            return None
+        return float(m.success_rate)
 
 
 @dataclass

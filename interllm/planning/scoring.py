@@ -64,6 +64,8 @@ class SemanticScores:
     categories: dict[str, float] = field(default_factory=dict)
     instances: dict[str, float] = field(default_factory=dict)  # object id -> score
     targets: dict[str, float] = field(default_factory=dict)  # furniture id -> score
+    # objects scoring below this are never proposed (the oracle: irrelevant ones); None: any object
+    floor: Optional[float] = None
 
     def to_dict(self) -> dict:
         return {"categories": self.categories, "instances": self.instances, "targets": self.targets}
@@ -183,17 +185,47 @@ def _score_instances(client, scene: SceneGraph, cfg: LLMConfig, categories: dict
             for o in sorted(scene.objects)}
 
 
-def _eligible_objects(scene: SceneGraph, state: State, target: str, exclude: set[str]) -> list[str]:
+def _eligible_objects(scene: SceneGraph, state: State, target: str, exclude: set[str],
+                      scores: Optional[SemanticScores] = None) -> list[str]:
+    """Objects a plan to ``target`` may take: not excluded, not held, not on the target, and not
+    below ``scores.floor`` when the scores set one."""
+    floor = None if scores is None else scores.floor
     return [o for o in sorted(scene.objects) if o not in exclude and o != state.holding
-            and scene.objects[o].furniture != target]
+            and scene.objects[o].furniture != target
+            and (floor is None or scores.instances.get(o, -1e9) >= floor)]
 
 
 def sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, n_objects: int, M: int,
                       temperature: float, rng: np.random.Generator, exclude_objects: Sequence[str] = (),
-                      exclude_targets: Sequence[str] = ()) -> list[tuple[tuple[str, ...], str]]:
-    """Up to ``M`` distinct (ordered objects, target) selections; see the module docstring."""
+                      exclude_targets: Sequence[str] = (), diversity: str = "plans"
+                      ) -> list[tuple[tuple[str, ...], str]]:
+    """Up to ``M`` distinct (ordered objects, target) selections; see the module docstring.
+
+    diversity: "plans": selections differ in (object set, target); "objects": first selections that
+    differ in their object sets, then, if the house offers fewer than M such sets, ones that differ
+    in the target only (``llm.candidate_diversity``)."""
+    if diversity == "objects":
+        first = _sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
+                                   exclude_targets, by_objects=True)
+        if len(first) < M:
+            seen = {(frozenset(o), t) for o, t in first}
+            more = _sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
+                                      exclude_targets, by_objects=False)
+            first += [(o, t) for o, t in more if (frozenset(o), t) not in seen][:M - len(first)]
+        return first
+    return _sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
+                              exclude_targets, by_objects=False)
+
+
+def _sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, n_objects: int, M: int,
+                       temperature: float, rng: np.random.Generator, exclude_objects: Sequence[str],
+                       exclude_targets: Sequence[str], by_objects: bool) -> list[tuple[tuple[str, ...], str]]:
+    """``sample_selections`` with one notion of distinct: by object set alone (``by_objects``) or by
+    (object set, target)."""
     excl = set(exclude_objects)
     targets = [f for f in sorted(scores.targets) if f in scene.furniture and f not in set(exclude_targets)]
+    above = [f for f in targets if scores.floor is None or scores.targets[f] >= scores.floor]
+    targets = above or targets  # every answered target excluded: the others stay possible
     if not targets:
         raise ValueError("no target furniture left to choose from (all excluded)")
     n_held = 1 if state.holding is not None else 0
@@ -202,13 +234,15 @@ def sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, n
     seen: set = set()
 
     def add(objs: tuple[str, ...], tgt: str) -> None:
-        key = (frozenset(objs), tgt)
+        key = frozenset(objs) if by_objects else (frozenset(objs), tgt)
+        if n and not objs:  # nothing left to take to this target
+            return
         if key not in seen and len(out) < M:
             seen.add(key)
             out.append((objs, tgt))
 
     def ranked(tgt: str) -> list[str]:
-        el = _eligible_objects(scene, state, tgt, excl)
+        el = _eligible_objects(scene, state, tgt, excl, scores)
         return sorted(el, key=lambda o: (-scores.instances.get(o, -1e9), o))
 
     if temperature > 0:
@@ -219,7 +253,7 @@ def sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, n
             if len(out) >= M:
                 break
             tgt = targets[int(rng.choice(len(targets), p=p))]
-            el = _eligible_objects(scene, state, tgt, excl)
+            el = _eligible_objects(scene, state, tgt, excl, scores)
             keys = np.array([scores.instances.get(o, -1e9) for o in el]) / temperature
             keys = keys + rng.gumbel(size=len(el))
             order = np.argsort(-keys, kind="stable")[:n]
@@ -242,10 +276,10 @@ def sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, n
 
 def propose_by_scores(scores: SemanticScores, scene: SceneGraph, state: State, n_objects: int, M: int,
                       temperature: float, seed: int, exclude_objects: Sequence[str] = (),
-                      exclude_targets: Sequence[str] = ()) -> list[Plan]:
+                      exclude_targets: Sequence[str] = (), diversity: str = "plans") -> list[Plan]:
     rng = np.random.default_rng(seed)
     sels = sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
-                             exclude_targets)
+                             exclude_targets, diversity)
     return [assemble_plan(scene, state, objs, tgt) for objs, tgt in sels]
 
 
@@ -264,7 +298,7 @@ def repair_by_scores(plan: Plan, scores: SemanticScores, scene: SceneGraph, stat
             raise ValueError("no target furniture left to repair the plan with")
         target = min(cands, key=lambda f: (-scores.targets[f], f))
     n = max(n_objects - (1 if state.holding is not None else 0), 0)
-    eligible = set(_eligible_objects(scene, state, target, excl))
+    eligible = set(_eligible_objects(scene, state, target, excl, scores))
     objs: list[str] = []
     for a in plan:
         if a.kind in ("pickup", "place") and a.obj in eligible and a.obj not in objs:

@@ -1,0 +1,201 @@
+"""The reference planners (nothing, optimal), the assignment search behind optimal, candidates that
+differ in objects, the oracle's relevant-only proposals and the cost encodings (paper, expected,
+numeric oracle)."""
+
+import itertools
+import logging
+import math
+
+import numpy as np
+import pytest
+from test_planners_fakes import SymbolicWorld, tiny_mission, tiny_scene
+from test_planners_symbolic import run
+
+from interllm.config import ExperimentConfig, LLMConfig
+from interllm.core.actions import Action, State
+from interllm.planners import PLANNERS
+from interllm.planning import oracle
+from interllm.planning.assignment import Delivery, cheapest_assignment
+from interllm.planning.costs import expected_failure_cost, failure_chance
+from interllm.planning.proposers import OracleCosts, estimate_of, success_rate_of
+from interllm.planning.scoring import SemanticScores, sample_selections
+from interllm.scene.graph import Command, Goal
+
+# ---- the assignment search -------------------------------------------------------------------
+
+
+def _line_nav(pos: dict):
+    return lambda a, b: 0.0 if a == b else abs(pos[a] - pos[b])
+
+
+def _brute(start, deliveries, n, nav):
+    best = (math.inf, None)
+    objs = sorted({d.obj for d in deliveries})
+    for k in range(min(n, len(objs)), -1, -1):
+        for perm in itertools.permutations(objs, k):
+            for choice in itertools.product(*[[d for d in deliveries if d.obj == o] for o in perm]):
+                loc, c = start, 0.0
+                for d in choice:
+                    c += nav(loc, d.source) + d.pick + nav(d.source, d.target) + d.place
+                    loc = d.target
+                best = min(best, (c, choice), key=lambda x: x[0])
+        if best[1] is not None:
+            return best[0]
+    return 0.0
+
+
+def test_the_assignment_is_the_exhaustive_optimum_on_random_instances():
+    rng = np.random.default_rng(0)
+    for _ in range(25):
+        pos = {f"f{i}": float(rng.uniform(0, 20)) for i in range(6)}
+        pos["@s"] = float(rng.uniform(0, 20))
+        ds = [Delivery(f"o{i}", f"f{int(rng.integers(4))}", t, float(rng.uniform(1, 30)), float(rng.uniform(1, 30)))
+              for i in range(5) for t in ("f4", "f5") if rng.random() < 0.8]
+        chosen, cost = cheapest_assignment("@s", ds, 3, _line_nav(pos))
+        assert cost == pytest.approx(_brute("@s", ds, 3, _line_nav(pos)))
+        assert len({d.obj for d in chosen}) == len(chosen) == min(3, len({d.obj for d in ds}))
+
+
+def test_the_assignment_takes_more_deliveries_before_lower_cost():
+    pos = {"@s": 0.0, "a": 1.0, "b": 50.0, "t": 2.0}
+    ds = [Delivery("cheap", "a", "t", 1.0, 1.0), Delivery("dear", "b", "t", 90.0, 90.0)]
+    chosen, cost = cheapest_assignment("@s", ds, 2, _line_nav(pos))
+    assert [d.obj for d in chosen] == ["cheap", "dear"]
+    # an object with no path is never chosen, and the plan takes fewer
+    nav = lambda a, b: math.inf if b == "b" else _line_nav(pos)(a, b)  # noqa: E731
+    chosen, _ = cheapest_assignment("@s", ds, 2, nav)
+    assert [d.obj for d in chosen] == ["cheap"]
+
+
+# ---- the reference planners ----------------------------------------------------------------
+
+
+def test_references_are_registered_as_references():
+    assert PLANNERS.entry("nothing").meta.get("reference") and PLANNERS.entry("optimal").meta.get("reference")
+    assert not PLANNERS.entry("inter_llm").meta.get("reference")
+
+
+def test_nothing_does_nothing():
+    rec, world = run("nothing")
+    assert world.executed == [] and all(c["actions"] == [] for c in rec["commands"])
+
+
+def test_optimal_delivers_every_reachable_object_and_skips_the_unreachable():
+    # banana_1 can never be picked up: the optimum takes the apple only, and no other planner
+    # input (candidates, LLM) matters to it
+    rec, world = run("optimal", hard=("banana_1",))
+    c1 = rec["commands"][0]
+    assert c1["final_locations"] == {"apple_1": "dining_table_1"}
+    assert not any("banana_1" in a for a in world.executed)
+    # the book already lies on the sofa (the reading command's target): no goal, never taken
+    assert rec["commands"][1]["final_locations"] == {"mug_1": "sofa_1"}
+
+
+def test_optimal_replans_without_an_object_whose_execution_fails():
+    from interllm.planners.optimal import OptimalPlanner
+
+    class Liar(SymbolicWorld):  # measures the apple as easy, but its pickup fails
+        def measure_manipulation(self, action):
+            return super().measure_manipulation(Action(action.kind, action.furniture, obj="x")
+                                                if action.obj == "apple_1" else action)
+
+    import test_planners_symbolic as tps
+    orig = tps.SymbolicWorld
+    tps.SymbolicWorld = lambda scene, sim, hard, blocked: Liar(scene, sim, ("apple_1",), blocked)
+    try:
+        rec, world = run("optimal")
+    finally:
+        tps.SymbolicWorld = orig
+    c1 = rec["commands"][0]
+    assert c1["final_locations"] == {"banana_1": "dining_table_1"} and c1["summary"]["replans"] >= 1
+    assert OptimalPlanner.name == "optimal"
+
+
+# ---- candidates that differ in objects ----------------------------------------------------
+
+
+def _scores():
+    return SemanticScores({}, {"apple_1": 0.0, "banana_1": -0.1, "mug_1": -5.0, "book_1": -6.0, "laptop_1": -7.0},
+                          {"dining_table_1": 0.0, "sofa_1": -0.2})
+
+
+@pytest.mark.parametrize("temperature", [0.0, 0.8])
+def test_candidates_differ_in_objects_where_the_house_allows(temperature):
+    scene, state = tiny_scene(), State("counter_1", "kitchen_1", None)
+    rng = np.random.default_rng(1)
+    objs = sample_selections(_scores(), scene, state, 2, 3, temperature, rng, diversity="objects")
+    assert len({frozenset(o) for o, _ in objs}) == 3
+    plans = sample_selections(_scores(), scene, state, 2, 3, 0.0, np.random.default_rng(1), diversity="plans")
+    assert len({frozenset(o) for o, _ in plans}) < 3  # the earlier sampler repeats the best pair
+
+
+def test_candidates_fall_back_to_other_targets_when_object_sets_run_out():
+    scene, state = tiny_scene(), State("counter_1", "kitchen_1", None)
+    s = _scores()
+    s.floor = -1.0  # only the apple and the banana may be proposed: one object set
+    out = sample_selections(s, scene, state, 2, 3, 0.0, np.random.default_rng(0), diversity="objects")
+    assert {frozenset(o) for o, _ in out} == {frozenset({"apple_1", "banana_1"})}
+    assert len({t for _, t in out}) == 2
+
+
+# ---- the oracle ---------------------------------------------------------------------------
+
+
+def test_the_oracle_proposes_only_relevant_objects_not_on_a_goal_target(caplog):
+    scene = tiny_scene()
+    import dataclasses
+    # the apple already stands where the command wants it
+    scene.objects["apple_1"] = dataclasses.replace(scene.objects["apple_1"], furniture="dining_table_1")
+    cmd = Command("breakfast", "Put an apple and a banana on the dining table",
+                  Goal(("apple", "banana"), ("dining_table_1",), 2))
+    with caplog.at_level(logging.WARNING):
+        s = oracle.oracle_scores(scene, cmd, LLMConfig(backend="oracle", proposal_mode="oracle",
+                                                         cost_inference_mode="oracle"))
+    assert s.instances["apple_1"] < s.floor <= s.instances["banana_1"]
+    assert "1 relevant object(s)" in caplog.text and "breakfast" in caplog.text
+    out = sample_selections(s, scene, State("counter_1", "kitchen_1", None), 2, 3, 0.8, np.random.default_rng(0))
+    assert out and all(set(o) == {"banana_1"} for o, _ in out)
+
+
+def _oracle_costs(mode):
+    cfg = ExperimentConfig()
+    scene = tiny_scene()
+    world = SymbolicWorld(scene, cfg.sim, hard_objects=("mug_1",))
+    world.reset(tiny_mission())
+    llm = LLMConfig(backend="oracle", proposal_mode="oracle", cost_inference_mode="oracle", oracle_costs=mode)
+    return OracleCosts(None, llm, ground_truth=world), world
+
+
+def test_the_numeric_oracle_gives_the_measured_cost_and_success_rate():
+    costs, world = _oracle_costs("numeric")
+    a = Action("pickup", "desk_1", obj="mug_1")
+    label = costs.infer(a, world.scene, None, seed_parts=(), context=())
+    truth = world.measure_manipulation(a)
+    assert label == "hard" and estimate_of(costs, a, label) == pytest.approx(truth.cost) and truth.cost > 100
+    assert success_rate_of(costs, a, label) == 0.0
+    assert estimate_of(costs, a, "easy") == 5.0  # a wrong (drawn) class keeps its decoded value
+    classes, _ = _oracle_costs("classes")
+    assert estimate_of(classes, a, label) == 20.0 and success_rate_of(classes, a, label) is None
+
+
+@pytest.mark.parametrize("label,known,sr,p", [("hard", None, None, 0.5), ("medium", None, None, 0.0),
+                                               ("easy", True, None, 1.0), ("hard", False, None, 0.0),
+                                               ("hard", None, 0.0, 1.0), ("hard", None, 0.4, 0.0)])
+def test_the_failure_chance_of_the_expected_encoding(label, known, sr, p):
+    assert failure_chance(label, 0.5, known_failed=known, measured_sr=sr) == p
+    assert expected_failure_cost(20.0, p, 100.0) == 20.0 + 100.0 * p
+
+
+def test_the_expected_encoding_steers_inter_llm_away_from_an_object_that_always_fails():
+    cfg = ExperimentConfig()
+    cfg.llm = LLMConfig(backend="oracle", proposal_mode="oracle", cost_inference_mode="oracle",
+                        oracle_costs="numeric", temperature=0.0)
+    cfg.planner.M = 3
+    rec_paper, _ = run("inter_llm", cfg, hard=("banana_1",))
+    cfg.planner.cost_encoding = "expected"
+    rec_exp, _ = run("inter_llm", cfg, hard=("banana_1",))
+    # every breakfast candidate needs the banana (two objects asked, apple and banana the only
+    # relevant ones), so the estimates grow by gamma_obj for each plan that picks it up
+    e_paper = rec_paper["commands"][0]["summary"]["estimated_costs"]
+    e_exp = rec_exp["commands"][0]["summary"]["estimated_costs"]
+    assert e_paper and all(b >= a + 100.0 - 1e-9 for a, b in zip(e_paper, e_exp, strict=True))
