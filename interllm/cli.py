@@ -95,6 +95,7 @@ def _report(args) -> int:
 
     from interllm.config import from_dict  # lazy: a command loads only its own code
     from interllm.stages.report import (  # lazy: a command loads only its own code
+        find_encoding_results,
         find_estimate_results,
         find_oracle_results,
         find_sweep_results,
@@ -116,14 +117,16 @@ def _report(args) -> int:
     temps, ms = find_sweep_results(*[Path(s) for s in args.sweeps])
     ests = find_estimate_results(*[Path(s) for s in args.sweeps])
     oracles = find_oracle_results(*[Path(s) for s in args.sweeps])
-    if args.sweeps and not temps and not ms and not ests and not oracles:
-        print(f"interllm report: error: no temperature_ablation, m_ablation, estimate_comparison or oracle_sweep "
-              f"job with data/metrics/metrics.json under {args.sweeps}", file=sys.stderr)
+    encs = find_encoding_results(*[Path(s) for s in args.sweeps])
+    if args.sweeps and not temps and not ms and not ests and not oracles and not encs:
+        print(f"interllm report: error: no temperature_ablation, m_ablation, estimate_comparison, oracle_sweep or "
+              f"encoding_comparison job with data/metrics/metrics.json under {args.sweeps}", file=sys.stderr)
         return 2
     run_report(cfg, data / "metrics", data / "scenes", data / "runs", Path(args.out),
-               temperature_results=temps, m_results=ms, estimate_results=ests, oracle_results=oracles)
+               temperature_results=temps, m_results=ms, estimate_results=ests, oracle_results=oracles,
+               encoding_results=encs)
     print(f"wrote {args.out}/report.html with {len(temps)} temperature, {len(ms)} M ablation, {len(ests)} "
-          f"estimate-variant and {len(oracles)} oracle results")
+          f"estimate-variant, {len(oracles)} oracle and {len(encs)} encoding-variant results")
     return 0
 
 

@@ -1,5 +1,7 @@
 """Metrics of executed missions (paper §V): per-object/command/mission tables, m_overall,
-bootstrap CIs, paired planner comparison, semantic-similarity accuracy, the report.
+bootstrap CIs, paired planner comparison, semantic-similarity accuracy, the report. Objects
+delivered, the position between the nothing and optimal references, the γ_obj sensitivity and
+candidate diversity are in ``interllm.metrics.deliveries`` (it loads the planner registry).
 
 ``aggregate(runs_dir, scenes_dir, cfg, out_dir)`` is the aggregate stage;
 ``build_report(metrics_dir, scenes_dir, runs_dir, out_dir, cfg)`` the report stage (import it from

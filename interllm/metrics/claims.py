@@ -1,10 +1,19 @@
 """The paper's claims, each beside our figure with its CI and a verdict (holds / does not hold /
 cannot tell), and the number of missions a 10% paired difference needs.
 
-- ``ordering``: Inter-LLM has the lowest m_overall per mission. Holds when every paired
-  improvement of the reference has its CI above 0; does not hold when one lies below 0.
+Reference planners (``metrics.json`` planners flagged ``"reference": true``: doing nothing, the
+ground-truth optimum) are shown beside the claims but are never claimants nor baselines.
+
+- ``ordering``: Inter-LLM has the lowest m_overall per mission. Per baseline: holds when the
+  paired improvement's CI lies above 0, does not hold when it lies below 0, else cannot tell; judged
+  together with a **delivery check**: when the paired CI of the delivered difference (Inter-LLM −
+  baseline, objects per mission, ``metrics.json`` "comparisons") lies below 0, a lower m_overall was
+  bought by delivering fewer objects, and the verdict reads "does not hold: lower m_overall by
+  delivering fewer objects" instead of "holds". Overall: holds when it holds against every
+  baseline; does not hold when it does not against one; else cannot tell.
 - ``improvement_30``: "improves the overall mission performance by 30%" over each baseline. Holds
-  when 30% lies in the CI; does not hold when the CI lies below 30%; "exceeds" above it.
+  when 30% lies in the CI; does not hold when the CI lies below 30%; "exceeds" above it; the same
+  delivery check turns "holds" / "exceeds" into "does not hold: ... by delivering fewer objects".
 - ``self_improvement``: Inter-LLM improves along a mission. Measured as a difference in
   differences over the same missions: (reference − baseline) m_overall per object of the last
   command minus that of the first command; holds when its CI lies below 0 (the reference gains
@@ -39,29 +48,68 @@ def _num(v: Any) -> float:
         return float("nan")
 
 
+FEWER = "does not hold: lower m_overall by delivering fewer objects"
+
+
+def references(metrics: Mapping) -> set[str]:
+    """The planners ``metrics.json`` flags as references (never claimants, never baselines)."""
+    return {p for p, d in metrics.get("planners", {}).items() if isinstance(d, Mapping) and d.get("reference")}
+
+
+def deliveries(metrics: Mapping) -> dict[str, tuple[float, float, float]]:
+    """{baseline: (delivered difference, lo, hi)} [objects per mission, Inter-LLM − baseline] from
+    ``metrics.json`` "comparisons" (empty for older files without it)."""
+    return {v.get("baseline", k.split("_vs_", 1)[1]): (_num(v.get("delivered_diff")), _num(v.get("delivered_diff_ci_lo")),
+                                                       _num(v.get("delivered_diff_ci_hi")))
+            for k, v in metrics.get("comparisons", {}).items()}
+
+
+def delivers_fewer(delivered: tuple[float, float, float] | None) -> bool:
+    """Whether a paired delivered difference's CI lies below 0 (significantly fewer objects)."""
+    return delivered is not None and math.isfinite(delivered[2]) and delivered[2] < 0
+
+
 def ordering(metrics: Mapping) -> dict:
-    """{verdict, improvements {baseline: (pct, lo, hi)}}."""
+    """{verdict, improvements {baseline: (pct, lo, hi)}, deliveries {baseline: (diff, lo, hi)},
+    verdicts {baseline: verdict}} over the non-reference baselines (module doc)."""
+    refs = references(metrics)
     imp = {k.split("_vs_", 1)[1]: (_num(v.get("pct")), _num(v.get("ci_lo")), _num(v.get("ci_hi")))
            for k, v in metrics.get("improvement", {}).items()}
-    if imp and all(lo > 0 for _, lo, _ in imp.values()):
+    imp = {b: v for b, v in imp.items() if b not in refs}
+    dl = {b: v for b, v in deliveries(metrics).items() if b in imp}
+    verdicts = {}
+    for b, (_, lo, hi) in imp.items():
+        if lo > 0:
+            verdicts[b] = FEWER if delivers_fewer(dl.get(b)) else "holds"
+        elif hi < 0:
+            verdicts[b] = "does not hold"
+        else:
+            verdicts[b] = "cannot tell"
+    if verdicts and all(v == "holds" for v in verdicts.values()):
         verdict = "holds"
-    elif any(hi < 0 for _, _, hi in imp.values()):
+    elif any(v == "does not hold" for v in verdicts.values()):
         verdict = "does not hold"
+    elif FEWER in verdicts.values():
+        verdict = FEWER
     else:
         verdict = "cannot tell"
-    return {"verdict": verdict, "improvements": imp}
+    return {"verdict": verdict, "improvements": imp, "deliveries": dl, "verdicts": verdicts}
 
 
 def improvement_30(metrics: Mapping) -> dict[str, dict]:
-    """Per baseline: {pct, lo, hi, verdict} against the paper's 30%."""
+    """Per non-reference baseline: {pct, lo, hi, verdict} against the paper's 30%, with the
+    delivery check (module doc)."""
+    o = ordering(metrics)
     out = {}
-    for base, (pct, lo, hi) in ordering(metrics)["improvements"].items():
+    for base, (pct, lo, hi) in o["improvements"].items():
         if not (math.isfinite(lo) and math.isfinite(hi)):
             verdict = "cannot tell"
         elif lo <= PAPER_IMPROVEMENT <= hi:
             verdict = "holds"
         else:
             verdict = "does not hold" if hi < PAPER_IMPROVEMENT else "exceeds"
+        if verdict in ("holds", "exceeds") and delivers_fewer(o["deliveries"].get(base)):
+            verdict = FEWER
         out[base] = {"pct": pct, "lo": lo, "hi": hi, "verdict": verdict}
     return out
 
@@ -77,11 +125,12 @@ def _per_object(per_command: Iterable[Mapping]) -> dict[tuple, dict[int, float]]
 
 
 def self_improvement(per_command: Iterable[Mapping], reference: str = "inter_llm", n_boot: int = 2000,
-                     ci: float = 0.95, seed: int = 0) -> dict[str, dict]:
-    """Per baseline: {did, lo, hi, n, verdict}: the difference in differences (module doc) [m_overall per object]."""
+                     ci: float = 0.95, seed: int = 0, exclude: Iterable[str] = ()) -> dict[str, dict]:
+    """Per baseline (planners in ``exclude``, the references, left out): {did, lo, hi, n, verdict}:
+    the difference in differences (module doc) [m_overall per object]."""
     po = _per_object(per_command)
     out = {}
-    for base in sorted({k[0] for k in po} - {reference}):
+    for base in sorted({k[0] for k in po} - {reference} - set(exclude)):
         d = []
         for (p, s, m), cmds in sorted(po.items()):
             if p != reference or (base, s, m) not in po or len(cmds) < 2:
@@ -126,14 +175,16 @@ def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot
     return {"slope": point, "lo": float(lo), "hi": float(hi), "n_sigma": len(sig), "verdict": verdict}
 
 
-def missions_needed(per_mission: Iterable[Mapping], reference: str = "inter_llm", effect: float = 0.10) -> dict:
-    """Per baseline: {n_needed, sd_diff, base_mean, n_pairs} for a paired ``effect`` (share of the
-    baseline's mean m_overall) at 80% power, α = 0.05 two-sided."""
+def missions_needed(per_mission: Iterable[Mapping], reference: str = "inter_llm", effect: float = 0.10,
+                    exclude: Iterable[str] = ()) -> dict:
+    """Per baseline (planners in ``exclude``, the references, left out): {n_needed, sd_diff,
+    base_mean, n_pairs} for a paired ``effect`` (share of the baseline's mean m_overall) at 80%
+    power, α = 0.05 two-sided."""
     by: dict[str, dict[tuple, float]] = {}
     for r in per_mission:
         by.setdefault(str(r["planner"]), {})[(str(r["scene"]), str(r["mission"]))] = float(r["m_overall"])
     out = {}
-    for base in sorted(set(by) - {reference}):
+    for base in sorted(set(by) - {reference} - set(exclude)):
         keys = sorted(set(by.get(reference, {})) & set(by[base]))
         if len(keys) < MIN_CI_SAMPLES:
             continue

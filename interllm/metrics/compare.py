@@ -3,8 +3,9 @@
 Used where bit-identity is not to be had (another ISA, an unpinned BLAS kernel; see
 :mod:`interllm.numerics`) and by ``make repro`` / ``interllm results diff`` to say what moved
 against the committed file. A *conclusion* is what the report states from the numbers: the
-ordering of the planners on mean m_overall, and for each paired comparison the direction of the
-improvement and whether its CI excludes 0.
+ordering of the planners on mean m_overall, for each paired comparison the direction of the
+improvement and of the delivered difference and whether its CI excludes 0, and whether each
+planner's m_overall lies significantly below doing nothing's.
 """
 
 from __future__ import annotations
@@ -108,6 +109,17 @@ def conclusions(metrics: dict) -> dict[str, str]:
         direction = "better" if pct > 0 else ("worse" if pct < 0 else "equal")
         sig = "CI excludes 0" if lo > 0 or hi < 0 else "CI includes 0"
         out[f"improvement {pair}"] = f"{direction}, {sig}"
+    for pair, c in sorted(metrics.get("comparisons", {}).items()):
+        v, lo, hi = c.get("delivered_diff"), c.get("delivered_diff_ci_lo"), c.get("delivered_diff_ci_hi")
+        if not (_num(v) and _num(lo) and _num(hi)):
+            out[f"delivered {pair}"] = "no interval"
+            continue
+        direction = "more" if v > 0 else ("fewer" if v < 0 else "equal")
+        out[f"delivered {pair}"] = f"{direction}, {'CI excludes 0' if lo > 0 or hi < 0 else 'CI includes 0'}"
+    for p in sorted(planners):
+        below = planners[p].get("below_nothing") if isinstance(planners[p], dict) else None
+        if isinstance(below, bool):
+            out[f"{p} below doing nothing"] = "yes, CI below 0" if below else "no"
     return out
 
 

@@ -9,8 +9,14 @@ The paper's unit is the *object*. How executed actions become per-object metrics
   k-th distinct object the robot manipulated in that command, in order of first manipulation
   (normally its first ``pickup``; a ``place`` of an object carried over from an earlier command
   also opens a slot). Objects beyond the n-th (e.g. a replacement after a failed pickup the planner
-  gave up on) are folded into slot n: their actions add to slot n's costs and slot n counts as
-  fulfilled if any object folded into it is.
+  gave up on) are folded into slot n: their actions add to slot n's costs (the per-slot cost
+  attribution is unchanged).
+* **Counting delivered objects.** sr_obj counts distinct delivered goal objects, up to n per
+  command: slot k < n has the sr_obj of its object; slot n counts as fulfilled if any object
+  folded into it is, and every further fulfilled object folded into slot n (beyond the first)
+  fills the earliest slot still unfulfilled. So Σ sr_obj over a command = min(n, number of
+  distinct fulfilled objects), and a replacement delivered after a failure counts, while the
+  failed object's slot keeps its own costs.
 * **Navigation.** A ``navigate`` action is attributed to the object of the next pickup/place in the
   same command, or to the previous one if none follows; if the command manipulated nothing at all,
   its navigation goes to slot 1.
@@ -19,11 +25,12 @@ The paper's unit is the *object*. How executed actions become per-object metrics
 * ``cc`` = Σ collisions, ``d`` = Σ distance [m] of the slot's navigate actions; ``t_nav`` /
   ``t_man`` = Σ simulated time [s] of its navigate / pickup+place actions, ``t_exe = t_nav + t_man``;
   ``sr_man`` = mean ``success_rate`` of its pickup/place actions (0 without any).
-* ``sr_obj`` ∈ {0, 1}: the object has a category in ``goal.categories`` (from the scene graph,
-  never from the LLM), the robot delivered it in this command (a successful place of it), it
-  did not stand on a target when the command began (an object already there is no goal; a
-  pick-and-put-back is no progress), and its location after the command (``final_locations``; if
-  absent, its last successful place in the command) is one of ``goal.target_furniture``.
+* ``sr_obj`` ∈ {0, 1} per slot, counted as above from whether an object is *fulfilled*: it has a
+  category in ``goal.categories`` (from the scene graph, never from the LLM), the robot delivered
+  it in this command (a successful place of it), it did not stand on a target when the command
+  began (an object already there is no goal; a pick-and-put-back is no progress), and its location
+  after the command (``final_locations``; if absent, its last successful place in the command) is
+  one of ``goal.target_furniture``.
 * ``m_overall = γ_nav·cc + t_exe + d + γ_man·(1 − sr_man) + γ_obj·(1 − sr_obj)``
   (γ_nav, γ_man: ``SimConfig``; γ_obj: ``MetricsConfig``).
 
@@ -234,6 +241,7 @@ class MissionRows:
         n = max(1, int(c.goal.n_objects))
         actions = list(c.actions)
         slot_of, slot_objs = assign_slots(actions, n)
+        sr_objs = self._sr_obj(c, slot_objs)
         rows = []
         for k in range(n):
             mine = [a for a, s in zip(actions, slot_of, strict=True) if s == k]
@@ -244,7 +252,7 @@ class MissionRows:
             t_nav = float(sum(float(a.time) for a in nav))
             t_man = float(sum(float(a.time) for a in man))
             sr_man = (sum(float(a.success_rate) for a in man) / len(man)) if man else 0.0
-            sr_obj = 1.0 if any(fulfilled(o, c, self.scene, self.where.get(o)) for o in slot_objs[k]) else 0.0
+            sr_obj = sr_objs[k]
             m = m_overall(cc, t_nav + t_man, d, sr_man, sr_obj, self.g)
             self._cum += m
             rows.append({
@@ -266,6 +274,18 @@ class MissionRows:
                "replans": int(s.replans), "dropped_candidates": int(s.dropped_candidates)}
         self.commands.append(row)
         return rows, row
+
+    def _sr_obj(self, c: CommandRecord, slot_objs: list[list[str]]) -> list[float]:
+        """sr_obj of each slot (module doc, "Counting delivered objects"): a slot's own object, slot n
+        if any object folded into it is fulfilled, and the further fulfilled objects of slot n fill
+        the earliest unfulfilled slots; Σ = min(n, distinct fulfilled objects)."""
+        ok = [[fulfilled(o, c, self.scene, self.where.get(o)) for o in objs] for objs in slot_objs]
+        out = [1.0 if any(f) else 0.0 for f in ok]
+        spare = max(0, sum(ok[-1]) - 1)  # fulfilled objects of slot n beyond the one it counts
+        for k in range(len(out) - 1):
+            if spare and out[k] == 0.0:
+                out[k], spare = 1.0, spare - 1
+        return out
 
     def mission_row(self, sim_time: float) -> dict:
         return {"planner": self.planner, "scene": self.scene_id, "mission": self.mission_id,
@@ -386,6 +406,13 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     whose improvement over the others is reported; call_logs: {stage: llm_calls.jsonl} whose calls
     and failed calls are counted into ``llm_calls`` (default: the missions stage's, in runs_dir).
 
+    metrics.json holds per planner the m_overall and delivery figures (``interllm.metrics.deliveries``:
+    delivered, delivered_per_mission, exec_cost_per_delivered, position, m_minus_nothing,
+    below_nothing, reference), ``improvement`` (the reference's paired % improvement over every
+    non-reference planner), ``comparisons`` (paired m_overall and delivered differences against
+    every other planner), ``references``, ``gamma_obj_sensitivity`` (``metrics.gamma_obj_sensitivity``)
+    and ``candidate_diversity``.
+
     Writes (atomically): ``metrics.json`` (DVC metrics, rounded floats, sorted keys),
     ``per_object.csv``, ``per_command.csv``, ``per_mission.csv``, ``cumulative.csv`` (x =
     object_index, y = m_overall_cum), ``per_object_summary.csv`` (mean + CI per planner and
@@ -420,6 +447,11 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
     inf_rows = [row for rec in records for row in stats.inference_rows(rec, temp)]
     sem = stats.semantic_accuracy(inf_rows, B, ci, seed)
 
+    from interllm.metrics import deliveries  # lazy: the planner registry; the missions stage needs none
+
+    dl = deliveries.delivery_metrics(records, po, pm, g.nav, g.man, list(mc.gamma_obj_sensitivity), reference,
+                                     B, ci, seed)
+    claimants = [r for r in pm if not dl["planners"][r["planner"]]["reference"]]  # references are not judged
     planners: dict[str, dict] = {}
     usage = stats.llm_usage(pm)
     logs = dict(call_logs) if call_logs is not None else {"missions": Path(runs_dir) / "llm_calls.jsonl"}
@@ -442,11 +474,16 @@ def aggregate(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: A
             d[k] = sum(r[k] for r in rows_o) / max(1, len(rows_o))
         d.update(usage[p])
         d["llm_failed_calls"] = calls.get("missions", {}).get("failed_by_planner", {}).get(p, 0)
+        d.update(dl["planners"][p])
         planners[p] = d
     result = {
         "planners": planners,
         "improvement": {f"{reference}_vs_{b}": v for b, v in
-                        stats.compare_planners(pm, reference, "m_overall", B, ci, seed).items()},
+                        stats.compare_planners(claimants, reference, "m_overall", B, ci, seed).items()},
+        "comparisons": dl["comparisons"],
+        "references": dl["references"],
+        "gamma_obj_sensitivity": dl["gamma_obj_sensitivity"],
+        "candidate_diversity": dl["candidate_diversity"],
         "semantic_accuracy": {f"{r['planner']}@{r['temperature']}": {
             k: r[k] for k in ("accuracy", "accuracy_ci_lo", "accuracy_ci_hi", "unknown_share", "coverage",
                               "accuracy_known", "accuracy_known_ci_lo", "accuracy_known_ci_hi", "chance",

@@ -2,17 +2,19 @@
 base64) built from the files the aggregate stage wrote (``metrics.json``, ``per_object.csv``,
 ``per_command.csv``, ``cumulative.csv``, ``per_object_summary.csv``, ``semantic_accuracy.csv``).
 
-Contents: summary per planner, paired improvement, one sentence on whether the paper's ordering
-(Inter-LLM lowest m_overall) holds, the paper's Table III layout with our means beside the
-paper's numbers, the cumulative overall-metric figure, per-object bars, the path-similarity
-illustration, scene pictures, run MCAPs with the replay command, Table II (semantic accuracy per
-temperature) and the M ablation when several result folders are given.
+Contents: the headline table (objects delivered, m_overall, the position between doing nothing
+and the ground-truth optimum, cost per delivered object; ``report_sections``), the paper's claims
+with the delivery check, summary per planner, paired improvement, one sentence on whether the
+paper's ordering (Inter-LLM lowest m_overall) holds, the γ_obj sensitivity, candidate diversity,
+the paper's Table III layout with our means beside the paper's numbers, the cumulative
+overall-metric figure, per-object bars, the path-similarity illustration, scene pictures, run MCAPs
+with the replay command, Table II (semantic accuracy per temperature), the M ablation, the
+cost-estimate variants, the oracle sweep and the cost encodings when multirun result folders are
+given. The document model and cell formatters are in ``interllm.metrics.doc``.
 """
 
 from __future__ import annotations
 
-import base64
-import html
 import math
 import os
 from collections.abc import Iterable, Mapping, Sequence
@@ -23,9 +25,15 @@ from interllm.core.seeding import bootstrap_seed
 from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, read_json
 from interllm.metrics import capability, claims, plots
+from interllm.metrics import report_sections as sections
 from interllm.metrics.compute import read_csv
+from interllm.metrics.doc import Doc as _Doc
+from interllm.metrics.doc import fnum as _f
+from interllm.metrics.doc import num_or_nan as _num_or_nan
+from interllm.metrics.doc import ordered as _ordered
+from interllm.metrics.doc import pct as _pct
+from interllm.metrics.doc import rel as _rel
 from interllm.metrics.stats import LABELS, confusion_matrix, paired_improvement
-from interllm.planners import PLANNERS
 from interllm.record.figures import mission_trajectories_figure
 
 # Paper Table III ("Comprehensive metric results of algorithm comparison", Yang et al.,
@@ -56,114 +64,6 @@ PAPER_TABLE_II: dict[float, float] = {0.0: 11.0, 0.2: 20.0, 0.4: 35.0, 0.6: 57.0
 TABLE_III_ROWS = (("cc", "Navigation Collision Counts"), ("d", "Navigated Distance (m)"),
                   ("sr_man", "Manipulation Success Rate"), ("t_exe", "Total Execution Time (s)"),
                   ("sr_obj", "Object Fulfillment Rate"))
-
-
-# ---- a tiny document model rendered to markdown and HTML -------------------------------------
-class _Doc:
-    def __init__(self) -> None:
-        self.blocks: list[tuple[str, Any]] = []
-
-    def h(self, level: int, text: str) -> None:
-        self.blocks.append(("h", (level, text)))
-
-    def p(self, text: str) -> None:
-        self.blocks.append(("p", text))
-
-    def code(self, text: str) -> None:
-        self.blocks.append(("code", text))
-
-    def table(self, header: list[str], rows: list[list[str]], group: Optional[list[tuple[str, int]]] = None
-              ) -> None:
-        self.blocks.append(("table", (header, rows, group)))
-
-    def img(self, path: Path, alt: str) -> None:
-        self.blocks.append(("img", (path, alt)))
-
-    def links(self, items: list[tuple[str, str]]) -> None:
-        self.blocks.append(("links", items))
-
-    def markdown(self, out_dir: Path) -> str:
-        out = []
-        for kind, v in self.blocks:
-            if kind == "h":
-                out.append("#" * v[0] + " " + v[1])
-            elif kind == "p":
-                out.append(v)
-            elif kind == "code":
-                out.append("```\n" + v + "\n```")
-            elif kind == "table":
-                header, rows, group = v
-                if group:
-                    names = []
-                    for text, span in group:
-                        names += [text] + [""] * (span - 1)
-                    header = [f"{g} {h}".strip() if g else h for g, h in zip(names, header, strict=True)]
-                lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-                lines += ["| " + " | ".join(r) + " |" for r in rows]
-                out.append("\n".join(lines))
-            elif kind == "img":
-                out.append(f"![{v[1]}]({_rel(v[0], out_dir)})")
-            elif kind == "links":
-                out.append("\n".join(f"- [{t}]({u})" for t, u in v))
-        return "\n\n".join(out) + "\n"
-
-    def html(self, title: str) -> str:
-        e = html.escape
-        out = [f"<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>{e(title)}</title>",
-               "<style>body{font-family:sans-serif;max-width:1200px;margin:auto}"
-               "table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #999;padding:2px 5px;"
-               "text-align:center}img{max-width:100%}</style></head><body>"]
-        for kind, v in self.blocks:
-            if kind == "h":
-                out.append(f"<h{v[0]}>{e(v[1])}</h{v[0]}>")
-            elif kind == "p":
-                out.append(f"<p>{e(v)}</p>")
-            elif kind == "code":
-                out.append(f"<pre><code>{e(v)}</code></pre>")
-            elif kind == "table":
-                header, rows, group = v
-                t = ["<table>"]
-                if group:
-                    t.append("<tr>" + "".join(f"<th colspan='{s}'>{e(g)}</th>" for g, s in group) + "</tr>")
-                t.append("<tr>" + "".join(f"<th>{e(h)}</th>" for h in header) + "</tr>")
-                t += ["<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>" for r in rows]
-                t.append("</table>")
-                out.append("".join(t))
-            elif kind == "img":
-                b64 = base64.b64encode(Path(v[0]).read_bytes()).decode("ascii")
-                out.append(f"<figure><img alt='{e(v[1])}' src='data:image/png;base64,{b64}'>"
-                           f"<figcaption>{e(v[1])}</figcaption></figure>")
-            elif kind == "links":
-                out.append("<ul>" + "".join(f"<li><a href='{e(u)}'>{e(t)}</a></li>" for t, u in v) + "</ul>")
-        out.append("</body></html>\n")
-        return "\n".join(out)
-
-
-def _rel(path: Path | str, start: Path) -> str:
-    return Path(os.path.relpath(Path(path).resolve(), Path(start).resolve())).as_posix()
-
-
-def _f(v: Any, nd: int = 1) -> str:
-    if v is None or v == "":
-        return "–"
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return str(v)
-    if math.isnan(x):
-        return "–"
-    return f"{x:.{nd}f}"
-
-
-def _pct(v: Any) -> str:
-    return "–" if v is None or v == "" or (isinstance(v, float) and math.isnan(v)) else f"{100 * float(v):.0f}%"
-
-
-def _ordered(planners: Iterable[str]) -> list[str]:
-    """Registered planners in their report order (baselines first), then any others by name."""
-    ps = set(planners)
-    known = sorted((p for p in ps if p in PLANNERS), key=lambda p: (PLANNERS.entry(p).meta.get("order", 99), p))
-    return known + sorted(p for p in ps if p not in PLANNERS)
 
 
 # ---- sections ----------------------------------------------------------------------------------
@@ -216,39 +116,29 @@ def _cell(metric: str, v: float, paper: Optional[float]) -> str:
 
 
 def ordering_sentence(metrics: Mapping, reference: str = "inter_llm") -> str:
-    """One sentence: does the paper's ordering (reference best on m_overall) hold? It holds when
-    every paired improvement of the reference has its CI above 0, does not hold when one has its CI
-    below 0, and otherwise the runs cannot tell (the mean rank alone decides nothing)."""
-    pl = metrics.get("planners", {})
+    """One sentence: does the paper's ordering (reference best on m_overall among the non-reference
+    planners) hold? Judged as ``claims.ordering`` does: it holds when every paired improvement of
+    the reference has its CI above 0 and it does not deliver significantly fewer objects, does not
+    hold when one has its CI below 0 (or the lower m_overall came from delivering fewer objects),
+    and otherwise the runs cannot tell (the mean rank alone decides nothing)."""
+    refs = claims.references(metrics)
+    pl = {p: d for p, d in metrics.get("planners", {}).items() if p not in refs}
     if reference not in pl or len(pl) < 2:
         return (f"The paper's ordering ({plots.label(reference)} best on m_overall) cannot be judged: "
                 f"runs exist only for {sorted(pl)}.")
     ranked = sorted(pl, key=lambda p: (float("inf") if pl[p].get("m_overall") is None else pl[p]["m_overall"], p))
     figs = "; ".join(f"{plots.label(p)} {_f(pl[p].get('m_overall'))} [{_f(pl[p].get('m_overall_ci_lo'))}, "
                      f"{_f(pl[p].get('m_overall_ci_hi'))}]" for p in ranked)
-    imp = metrics.get("improvement", {})
-    imps = "; ".join(f"{plots.label(reference)} vs {plots.label(k.split('_vs_', 1)[1])}: "
-                     f"{_f(v.get('pct'))}% [{_f(v.get('ci_lo'))}, {_f(v.get('ci_hi'))}]"
-                     for k, v in sorted(imp.items()))
-    lows = [_num_or_nan(v.get("ci_lo")) for v in imp.values()]
-    highs = [_num_or_nan(v.get("ci_hi")) for v in imp.values()]
-    if imp and all(x > 0 for x in lows):
-        verdict = "holds"
-    elif any(x < 0 for x in highs):
-        verdict = "does not hold"
-    else:
-        verdict = "cannot be told (a paired CI includes 0 or has too few pairs)"
+    o = claims.ordering(metrics)
+    imps = "; ".join(f"{plots.label(reference)} vs {plots.label(b)}: {_f(v[0])}% [{_f(v[1])}, {_f(v[2])}]"
+                     for b, v in sorted(o["improvements"].items()))
+    verdict = {"holds": "holds on our runs", "does not hold": "does not hold on our runs",
+               claims.FEWER: "does not hold on our runs: its lower m_overall comes from delivering fewer objects",
+               }.get(o["verdict"], "cannot be told on our runs (a paired CI includes 0 or has too few pairs)")
     best = "the lowest" if ranked[0] == reference else "not the lowest"
     return (f"The paper's ordering ({plots.label(reference)} best on m_overall per mission, judged by the paired "
-            f"CIs) {verdict} on our runs; its mean is {best}: {figs} (mean per mission, {len(pl)} planners; "
-            f"bootstrap CI)." + (f" Paired improvement: {imps}." if imps else ""))
-
-
-def _num_or_nan(v: Any) -> float:
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return float("nan")
+            f"CIs and the delivery check) {verdict}; its mean is {best}: {figs} (mean per mission, "
+            f"{len(pl)} planners, references aside; bootstrap CI)." + (f" Paired improvement: {imps}." if imps else ""))
 
 
 def _gather(pairs: Sequence[tuple[str, str | os.PathLike]]) -> list[tuple[str, Path, dict]]:
@@ -262,38 +152,93 @@ def _gather(pairs: Sequence[tuple[str, str | os.PathLike]]) -> list[tuple[str, P
 
 def _claims_section(doc: _Doc, metrics: Mapping, metrics_dir: Path,
                     temperature_dirs: Sequence[Path], reference: str) -> None:
-    """The paper's claims beside our figures, each with its CI and a verdict (``metrics.claims``)."""
+    """The paper's claims beside our figures, each with its CI, the paired delivered difference where
+    the claim is about m_overall, and a verdict (``metrics.claims``; references are not claimants)."""
     ref = plots.label(reference)
+    refs = claims.references(metrics)
     doc.h(2, "The paper's claims")
     rows = []
     o = claims.ordering(metrics)
+
+    def delivered(b: str) -> str:
+        v = o["deliveries"].get(b)
+        return "–" if v is None else f"vs {plots.label(b)} {sections.ci(*v, nd=2, sign=True)}"
+
     figs = "; ".join(f"vs {plots.label(b)} {_f(p)}% [{_f(lo)}, {_f(hi)}]" for b, (p, lo, hi) in
                      sorted(o["improvements"].items()))
-    rows.append([f"{ref} has the lowest m_overall of the three planners", figs or "–", o["verdict"]])
+    dl = "; ".join(delivered(b) for b in sorted(o["improvements"]) if b in o["deliveries"])
+    rows.append([f"{ref} has the lowest m_overall of the planners compared", figs or "–", dl or "–", o["verdict"]])
     for b, v in sorted(claims.improvement_30(metrics).items()):
         rows.append([f"{ref} improves m_overall by 30% over {plots.label(b)}",
-                     f"{_f(v['pct'])}% [{_f(v['lo'])}, {_f(v['hi'])}]", v["verdict"]])
+                     f"{_f(v['pct'])}% [{_f(v['lo'])}, {_f(v['hi'])}]", delivered(b), v["verdict"]])
     per_command = read_csv(metrics_dir / "per_command.csv") if (metrics_dir / "per_command.csv").is_file() else []
-    for b, v in sorted(claims.self_improvement(per_command, reference).items()):
+    for b, v in sorted(claims.self_improvement(per_command, reference, exclude=refs).items()):
         rows.append([f"{ref} self-improves along the mission (vs {plots.label(b)}: gap of the last command minus "
                      f"the first, m_overall per object)", f"{_f(v['did'])} [{_f(v['lo'])}, {_f(v['hi'])}] "
-                     f"({v['n']} missions)", v["verdict"]])
+                     f"({v['n']} missions)", "–", v["verdict"]])
     inf = []  # the sigma sweep's runs when there is one (same missions per sigma), else this run
     for d in [Path(x) for x in temperature_dirs if (Path(x) / "semantic_inferences.csv").is_file()] or [metrics_dir]:
         p = Path(d) / "semantic_inferences.csv"
         inf += read_csv(p) if p.is_file() else []
     s = claims.sigma_rise(inf, reference)
     rows.append(["Table II: semantic-similarity accuracy rises with σ (slope of accuracy when answered per unit σ)",
-                 f"{_f(s['slope'], 3)} [{_f(s['lo'], 3)}, {_f(s['hi'], 3)}] ({s['n_sigma']} σ values)",
+                 f"{_f(s['slope'], 3)} [{_f(s['lo'], 3)}, {_f(s['hi'], 3)}] ({s['n_sigma']} σ values)", "–",
                  s["verdict"]])
-    doc.table(["claim", "ours [95% CI]", "verdict"], rows)
+    doc.p("A claim about m_overall is judged together with the objects delivered: when the paired CI of the "
+          f"delivered difference ({ref} − baseline, objects per mission) lies below 0, a lower m_overall was bought "
+          "by delivering fewer objects and the claim does not hold.")
+    doc.table(["claim", "ours [95% CI]", "delivered difference / mission [95% CI]", "verdict"], rows)
     per_mission = read_csv(metrics_dir / "per_mission.csv") if (metrics_dir / "per_mission.csv").is_file() else []
-    need = claims.missions_needed(per_mission, reference)
+    need = claims.missions_needed(per_mission, reference, exclude=refs)
     if need:
         doc.p("Missions a paired 10% difference in m_overall needs at 80% power (α = 0.05, two-sided), from the "
               "measured spread of the per-mission differences: " + "; ".join(
                   f"vs {plots.label(b)} {v['n_needed']} (sd of the differences {_f(v['sd_diff'])}, "
                   f"{v['n_pairs']} pairs here)" for b, v in sorted(need.items())) + ".")
+
+
+def _summary_section(doc: _Doc, metrics: Mapping, reference: str) -> None:
+    """Every per-planner figure, objects delivered and the cost per delivered object beside m_overall;
+    failed LLM calls; the paired improvements."""
+    pl = metrics.get("planners", {})
+    doc.h(2, "Summary per planner")
+    doc.p(ordering_sentence(metrics, reference))
+    rows = []
+    for p in _ordered(pl):
+        d = pl[p]
+        rows.append([plots.label(p), str(d.get("n_missions")),
+                     f"{_f(d.get('m_overall'))} [{_f(d.get('m_overall_ci_lo'))}, {_f(d.get('m_overall_ci_hi'))}]",
+                     f"{d.get('delivered', d.get('n_fulfilled'))}/{d.get('n_objects')}",
+                     sections.ci(d.get("delivered_per_mission"), d.get("delivered_per_mission_ci_lo"),
+                                 d.get("delivered_per_mission_ci_hi"), 2),
+                     _f(d.get("exec_cost_per_delivered")), _f(d.get("m_overall_per_object")),
+                     _pct(d.get("sr_obj")), _f(d.get("cc"), 2), _f(d.get("d")), _f(d.get("t_exe")),
+                     _pct(d.get("sr_man")), _f(d.get("llm_calls_per_mission")),
+                     _f(d.get("llm_tokens_in_per_mission"), 0), _f(d.get("llm_tokens_out_per_mission"), 0)])
+    doc.p("Scoring rule: a command asking for n objects has n slots, the k-th distinct object the planner "
+          "manipulated in it; a slot it never filled scores sr_man = 0 and sr_obj = 0 with no time or "
+          "distance (m_overall = γ_man + γ_obj), as the paper's Table III scores an object it did not "
+          "deliver (0%, ×). sr_obj counts an object when the robot delivered it in the command (a successful "
+          "place) onto a target furniture, its category is one the command asks for (from the scene graph), and "
+          "it did not stand on a target when the command began (no goal; a pick-and-put-back is no progress). "
+          "Objects beyond the n-th (a replacement after a failure) add their costs to slot n and, when delivered, "
+          "fill an earlier unfulfilled slot: a command counts min(n, distinct objects delivered).")
+    doc.table(["planner", "missions", "m_overall / mission [CI]", "delivered", "delivered / mission [CI]",
+               "cost / delivered [s]", "m_overall / object", "sr_obj", "cc / mission", "d [m] / mission",
+               "t_exe [s] / mission", "sr_man", "LLM calls / mission", "tokens in / mission",
+               "tokens out / mission"], rows)
+    calls = metrics.get("llm_calls", {})
+    if calls:
+        doc.p("LLM calls that failed (an answer still unparseable after the repair retries, or a backend "
+              "error; a stage stops above llm.max_failure_share): " + "; ".join(
+                  f"{stage} stage {c.get('failed', 0)} of {c.get('calls', 0)}" for stage, c in sorted(calls.items()))
+              + "; per planner in the missions stage: " + ", ".join(
+                  f"{plots.label(p)} {pl[p].get('llm_failed_calls', 0)}" for p in _ordered(pl)) + ".")
+    imp = metrics.get("improvement", {})
+    if imp:
+        doc.table(["comparison", "pairs", "improvement % of baseline m_overall [CI]"],
+                  [[k, str(v.get("n_pairs")), f"{_f(v.get('pct'))} [{_f(v.get('ci_lo'))}, {_f(v.get('ci_hi'))}]"]
+                   for k, v in sorted(imp.items())])
 
 
 def _paired(base_dir: Path, other_dir: Path, planner: str, label: str) -> tuple[int, float, float, float]:
@@ -426,7 +371,8 @@ def _capability_section(doc: _Doc, metrics: Mapping, oracles: Sequence[tuple[flo
     model = _source_row(metrics, reference)
     sweep = [(e, _source_row(m, reference)) for e, m in got]
     planners = _ordered({p for _, r in sweep for p in r["planners"]} | set(model["planners"]))
-    baselines = [p for p in planners if p != reference]
+    refs = claims.references(metrics) | {p for _, m in got for p in claims.references(m)}
+    baselines = [p for p in planners if p != reference and p not in refs]
     doc.h(2, "LLM capability: the oracle sweep and this run's model")
     doc.p("The same missions with llm=oracle: object relevance and target furniture from each command's goal, "
           "cost classes from the simulator's measurement, with a share llm.oracle_error of the answers replaced "
@@ -468,14 +414,17 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
                  m_results: Sequence[tuple[str, str | os.PathLike]] = (),
                  reference: str = "inter_llm",
                  estimate_results: Sequence[tuple[str, str | os.PathLike]] = (),
-                 oracle_results: Sequence[tuple[float, str | os.PathLike]] = ()) -> dict[str, Path]:
+                 oracle_results: Sequence[tuple[float, str | os.PathLike]] = (),
+                 encoding_results: Sequence[tuple[str, str, str | os.PathLike]] = ()) -> dict[str, Path]:
     """Write ``out_dir/report.md``, ``out_dir/report.html`` and ``out_dir/figures/*.png``.
 
     metrics_dir: output of ``aggregate``; scenes_dir: ``data/scenes`` (topdown.png pictures);
     runs_dir: ``data/runs`` (MCAP links); cfg: ExperimentConfig or None (ε of the path-similarity
     figure = ``cfg.planner.epsilon_d``); temperature_results / m_results: (label, metrics_dir)
     pairs of other runs (labels like "0.2" / "M=3"); folders without metrics.json are skipped;
-    oracle_results: (llm.oracle_error, metrics_dir) pairs of an oracle sweep on the same missions.
+    oracle_results: (llm.oracle_error, metrics_dir) pairs of an oracle sweep on the same missions;
+    encoding_results: (group, variant, metrics_dir) of runs differing only in llm.oracle_costs and/or
+    planner.cost_encoding (``report_sections.encoding_section``).
     Returns {"markdown", "html", "figures"} paths.
     """
     metrics_dir, out_dir = Path(metrics_dir), Path(out_dir)
@@ -497,42 +446,12 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
           f"{int(100 * float(s.get('ci', 0.95)))}% percentile bootstrap CIs with B = "
           f"{s.get('bootstrap_samples')} (seed {s.get('seed')}). All times are simulated seconds.")
 
+    sections.headline_section(doc, metrics, Path(scenes_dir), sorted({str(r["scene"]) for r in per_object}),
+                              reference)
     _claims_section(doc, metrics, metrics_dir, [Path(d) for _, d in temperature_results], reference)
-
-    # summary
-    pl = metrics.get("planners", {})
-    doc.h(2, "Summary per planner")
-    doc.p(ordering_sentence(metrics, reference))
-    rows = []
-    for p in _ordered(pl):
-        d = pl[p]
-        rows.append([plots.label(p), str(d.get("n_missions")),
-                     f"{_f(d.get('m_overall'))} [{_f(d.get('m_overall_ci_lo'))}, {_f(d.get('m_overall_ci_hi'))}]",
-                     _f(d.get("m_overall_per_object")), f"{d.get('n_fulfilled')}/{d.get('n_objects')}",
-                     _pct(d.get("sr_obj")), _f(d.get("cc"), 2), _f(d.get("d")), _f(d.get("t_exe")),
-                     _pct(d.get("sr_man")), _f(d.get("llm_calls_per_mission")),
-                     _f(d.get("llm_tokens_in_per_mission"), 0), _f(d.get("llm_tokens_out_per_mission"), 0)])
-    doc.p("Scoring rule: a command asking for n objects has n slots, the k-th distinct object the planner "
-          "manipulated in it; a slot it never filled scores sr_man = 0 and sr_obj = 0 with no time or "
-          "distance (m_overall = γ_man + γ_obj), as the paper's Table III scores an object it did not "
-          "deliver (0%, ×). sr_obj counts an object when the robot delivered it in the command (a successful "
-          "place) onto a target furniture, its category is one the command asks for (from the scene graph), and "
-          "it did not stand on a target when the command began (no goal; a pick-and-put-back is no progress).")
-    doc.table(["planner", "missions", "m_overall / mission [CI]", "m_overall / object", "fulfilled", "sr_obj",
-               "cc / mission", "d [m] / mission", "t_exe [s] / mission", "sr_man", "LLM calls / mission",
-               "tokens in / mission", "tokens out / mission"], rows)
-    calls = metrics.get("llm_calls", {})
-    if calls:
-        doc.p("LLM calls that failed (an answer still unparseable after the repair retries, or a backend "
-              "error; a stage stops above llm.max_failure_share): " + "; ".join(
-                  f"{stage} stage {c.get('failed', 0)} of {c.get('calls', 0)}" for stage, c in sorted(calls.items()))
-              + "; per planner in the missions stage: " + ", ".join(
-                  f"{plots.label(p)} {pl[p].get('llm_failed_calls', 0)}" for p in _ordered(pl)) + ".")
-    imp = metrics.get("improvement", {})
-    if imp:
-        doc.table(["comparison", "pairs", "improvement % of baseline m_overall [CI]"],
-                  [[k, str(v.get("n_pairs")), f"{_f(v.get('pct'))} [{_f(v.get('ci_lo'))}, {_f(v.get('ci_hi'))}]"]
-                   for k, v in sorted(imp.items())])
+    _summary_section(doc, metrics, reference)
+    sections.gamma_obj_section(doc, metrics, reference)
+    sections.diversity_section(doc, metrics)
 
     # Table III
     doc.h(2, "Table III: per-object metrics (ours, paper in parentheses)")
@@ -669,16 +588,17 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
             d = mj.get("planners", {}).get(reference, {})
             n_pairs, pct, lo, hi = _paired(base_dir, d_dir, reference, f"M:{lab}")
             rows.append([lab, f"{_f(d.get('m_overall'))} [{_f(d.get('m_overall_ci_lo'))}, "
-                              f"{_f(d.get('m_overall_ci_hi'))}]",
+                              f"{_f(d.get('m_overall_ci_hi'))}]", f"{d.get('n_fulfilled')}/{d.get('n_objects')}",
                          "–" if lab == base_lab else f"{_f(pct)}% [{_f(lo)}, {_f(hi)}] ({n_pairs} pairs)",
                          _f(d.get("llm_calls_per_mission")),
                          _f(d.get("llm_tokens_in_per_mission"), 0), _f(d.get("llm_tokens_out_per_mission"), 0)])
-        doc.table(["M", f"{plots.label(reference)} m_overall / mission [CI]", f"reduction vs {base_lab} [CI]",
+        doc.table(["M", f"{plots.label(reference)} m_overall / mission [CI]", "delivered", f"reduction vs {base_lab} [CI]",
                    "LLM calls / mission", "tokens in / mission", "tokens out / mission"], rows)
 
     _estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], reference,
                        cfg.planner.nav_estimate if cfg is not None else "this run's estimate")
     _capability_section(doc, metrics, [(float(e), Path(d)) for e, d in oracle_results], fig_dir, reference, figures)
+    sections.encoding_section(doc, [(g, v, Path(d)) for g, v, d in encoding_results], metrics, reference)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     md, ht = out_dir / "report.md", out_dir / "report.html"

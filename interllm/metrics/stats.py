@@ -8,8 +8,8 @@ are present, and identical inputs give identical outputs.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
-from typing import Optional
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any, Optional
 
 import numpy as np
 
@@ -78,6 +78,54 @@ def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int 
     alpha = (1.0 - ci) / 2.0
     lo, hi = np.quantile(pcts, [alpha, 1.0 - alpha])
     return pct, float(lo), float(hi)
+
+
+def paired_mean_diff(x: Sequence[float], y: Sequence[float], n_boot: int = 2000, ci: float = 0.95,
+                     seed: int = 0) -> tuple[float, float, float]:
+    """(mean(x − y), lo, hi): the mean paired difference (same scene and mission at the same
+    position, in the unit of x and y) with a paired percentile bootstrap CI (pairs resampled
+    jointly); NaN bounds from fewer than ``MIN_CI_SAMPLES`` pairs, NaNs from none."""
+    a = np.asarray(list(x), dtype=float)
+    b = np.asarray(list(y), dtype=float)
+    if a.shape != b.shape:
+        raise ValueError(f"paired samples differ in length: {a.size} vs {b.size}")
+    return bootstrap_mean_ci(a - b, n_boot, ci, seed)
+
+
+def joint_bootstrap(stat: Callable[..., Any], arrays: Sequence[Sequence[float]], n_boot: int = 2000,
+                    ci: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
+    """(stat(*arrays), lo, hi): a statistic of several paired samples (one value per mission each,
+    the same missions in the same order) with a percentile bootstrap CI that resamples the missions
+    jointly for every array. ``stat`` reduces the last axis (it gets 1-D arrays for the point and
+    (n_boot, n) arrays for the resamples); resamples where it is not finite are dropped. NaN bounds
+    from fewer than ``MIN_CI_SAMPLES`` missions, NaNs from none."""
+    arrs = [np.asarray(list(a), dtype=float) for a in arrays]
+    n = arrs[0].size if arrs else 0
+    if any(a.size != n for a in arrs):
+        raise ValueError(f"paired samples differ in length: {[a.size for a in arrs]}")
+    if n == 0:
+        return float("nan"), float("nan"), float("nan")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        point = float(stat(*arrs))
+        if n < MIN_CI_SAMPLES:
+            return point, float("nan"), float("nan")
+        rng = np.random.default_rng(seed)
+        idx = rng.integers(0, n, size=(int(n_boot), n))
+        vals = np.asarray(stat(*[a[idx] for a in arrs]), dtype=float)
+    vals = vals[np.isfinite(vals)]
+    if vals.size == 0:
+        return point, float("nan"), float("nan")
+    alpha = (1.0 - ci) / 2.0
+    lo, hi = np.quantile(vals, [alpha, 1.0 - alpha])
+    return point, float(lo), float(hi)
+
+
+def by_mission(per_mission: Iterable[Mapping], metric: str) -> dict[str, dict[tuple[str, str], float]]:
+    """{planner: {(scene, mission): float(row[metric])}} of per-mission rows (for pairing)."""
+    out: dict[str, dict[tuple[str, str], float]] = {}
+    for r in per_mission:
+        out.setdefault(str(r["planner"]), {})[(str(r["scene"]), str(r["mission"]))] = float(r[metric])
+    return out
 
 
 def compare_planners(per_mission: Iterable[Mapping], reference: str = "inter_llm", metric: str = "m_overall",

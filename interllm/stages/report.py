@@ -10,19 +10,23 @@ import yaml
 
 from interllm.config import ExperimentConfig
 from interllm.metrics.report import build_report
+from interllm.metrics.report_sections import ENCODING_DEFAULTS, ENCODING_KEYS, encoding_label
 
 
 def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_dir: Path,
                out_dir: Path, temperature_results: Iterable[tuple[str, Path]] = (),
                m_results: Iterable[tuple[str, Path]] = (),
                estimate_results: Iterable[tuple[str, Path]] = (),
-               oracle_results: Iterable[tuple[float, Path]] = ()) -> None:
+               oracle_results: Iterable[tuple[float, Path]] = (),
+               encoding_results: Iterable[tuple[str, str, Path]] = ()) -> None:
     """The report; ablation results are (label, metrics_dir) pairs (``find_sweep_results``,
     ``find_estimate_results``), oracle results (llm.oracle_error, metrics_dir) pairs
-    (``find_oracle_results``)."""
+    (``find_oracle_results``), encoding results (group, variant, metrics_dir)
+    (``find_encoding_results``)."""
     build_report(Path(metrics_dir), Path(scenes_dir), Path(runs_dir), Path(out_dir), cfg,
                  temperature_results=list(temperature_results), m_results=list(m_results),
-                 estimate_results=list(estimate_results), oracle_results=list(oracle_results))
+                 estimate_results=list(estimate_results), oracle_results=list(oracle_results),
+                 encoding_results=list(encoding_results))
 
 
 def _jobs(roots: Iterable[Path], experiment: str) -> list[tuple[dict, Path]]:
@@ -38,10 +42,71 @@ def _jobs(roots: Iterable[Path], experiment: str) -> list[tuple[dict, Path]]:
     return out
 
 
+def _get(c: dict, key: str, default: object = None) -> object:
+    """The value of a dotted ``key`` ("llm.oracle_costs") in a job's config, ``default`` if absent."""
+    for part in key.split("."):
+        if not isinstance(c, dict) or part not in c:
+            return default
+        c = c[part]
+    return c
+
+
+def _encoding(c: dict) -> tuple[str, str]:
+    """(llm.oracle_costs, planner.cost_encoding) of a job's config (the defaults when absent: older runs)."""
+    (oc_key, ce_key), (oc_default, ce_default) = ENCODING_KEYS, ENCODING_DEFAULTS
+    return str(_get(c, oc_key, oc_default)), str(_get(c, ce_key, ce_default))
+
+
 def find_oracle_results(*roots: Path) -> list[tuple[float, Path]]:
     """Jobs of ``experiment=oracle_sweep`` multiruns under ``roots`` with metrics:
-    [(llm.oracle_error, metrics_dir)], sorted by the error."""
-    return sorted((float(c["llm"]["oracle_error"]), m) for c, m in _jobs(roots, "oracle_sweep"))
+    [(llm.oracle_error, metrics_dir)], sorted by the error. When the jobs also sweep the cost
+    encoding (``find_encoding_results``), only those with the paper's encoding (or, without any,
+    the first encoding by name) form the oracle axis, one job per error."""
+    jobs = _jobs(roots, "oracle_sweep")
+    encs = {_encoding(c) for c, _ in jobs}
+    keep = ENCODING_DEFAULTS if ENCODING_DEFAULTS in encs or not encs else min(encs)
+    return sorted((float(c["llm"]["oracle_error"]), m) for c, m in jobs if _encoding(c) == keep)
+
+
+# keys that do not change what a run measures (where it writes, how many threads / workers)
+_IRRELEVANT = ("data_dir", "jobs", "verbose", "llm.cache_dir", "llm.cache_mode", "llm.n_threads")
+
+
+def _flat(c: object, prefix: str = "") -> dict[str, str]:
+    if isinstance(c, dict):
+        out: dict[str, str] = {}
+        for k, v in c.items():
+            out.update(_flat(v, f"{prefix}{k}."))
+        return out
+    return {prefix[:-1]: c if isinstance(c, str) else repr(c)}
+
+
+def find_encoding_results(*roots: Path) -> list[tuple[str, str, Path]]:
+    """Jobs under ``roots`` (any experiment) with metrics that differ only in ``llm.oracle_costs``
+    and/or ``planner.cost_encoding`` (read from each job's ``.hydra/config.yaml``, as the other
+    sweeps are; keys in ``_IRRELEVANT`` are ignored): [(group, variant, metrics_dir)] where variant
+    is ``encoding_label(oracle_costs, cost_encoding)`` and group names the settings the jobs of a group
+    share and other groups do not ("" for a single group); only groups with at least two variants,
+    sorted."""
+    jobs = []
+    for root in roots:
+        for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
+            metrics = cfg_file.parent.parent / "data" / "metrics"
+            if (metrics / "metrics.json").is_file():
+                c = yaml.safe_load(cfg_file.read_text()) or {}
+                jobs.append((c, metrics))
+    groups: dict[tuple, dict[str, Path]] = {}
+    for c, m in jobs:
+        rest = {k: v for k, v in _flat(c).items() if k not in ENCODING_KEYS and k not in _IRRELEVANT}
+        groups.setdefault(tuple(sorted(rest.items())), {}).setdefault(encoding_label(*_encoding(c)), m)
+    groups = {k: v for k, v in groups.items() if len(v) >= 2}
+    varying = sorted({k for g in groups for k, v in g if any(dict(h).get(k) != v for h in groups)})
+    out = []
+    for g, variants in groups.items():
+        d = dict(g)
+        label = ", ".join(f"{k}={d[k] if k in d else '(absent)'}" for k in varying)
+        out += [(label, v, m) for v, m in variants.items()]
+    return sorted(out)
 
 
 def find_estimate_results(*roots: Path) -> list[tuple[str, Path]]:

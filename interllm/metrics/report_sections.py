@@ -1,0 +1,322 @@
+"""The report's delivery sections (issue #27), from metrics.json (``interllm.metrics.deliveries``):
+
+- ``headline_section``: the first table of the report: per planner objects delivered [CI],
+  m_overall [CI], the normalised position between doing nothing (0) and the ground-truth optimum
+  (1) [CI], whether m_overall lies significantly below doing nothing's, and the execution cost
+  per delivered object; the paired differences between the planners; the slots the scenes
+  stage measured as deliverable (``feasibility.json``);
+- ``gamma_obj_section``: mean m_overall per mission at each γ_obj of
+  ``metrics.gamma_obj_sensitivity``, the paired differences and the break-even γ_obj;
+- ``diversity_section``: the share of commands whose plan candidates take different objects;
+- ``encoding_section``: runs of a multirun that differ only in ``llm.oracle_costs`` and/or
+  ``planner.cost_encoding``, paired against the paper's encoding.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Optional
+
+from interllm.core.seeding import bootstrap_seed
+from interllm.io import read_json
+from interllm.metrics import plots
+from interllm.metrics.compute import read_csv
+from interllm.metrics.deliveries import NOTHING, OPTIMAL, gamma_key, paired_runs
+from interllm.metrics.doc import Doc, fnum, num_or_nan, ordered, pct
+
+ENCODING_KEYS = ("llm.oracle_costs", "planner.cost_encoding")
+ENCODING_DEFAULTS = ("classes", "paper")  # the paper's: three cost classes, the paper's text encoding
+
+
+def encoding_label(oracle_costs: str, cost_encoding: str) -> str:
+    """The label of one encoding variant ("oracle_costs=classes, cost_encoding=paper")."""
+    return f"oracle_costs={oracle_costs}, cost_encoding={cost_encoding}"
+
+
+BASE_ENCODING = encoding_label(*ENCODING_DEFAULTS)
+
+
+def ci(v: Any, lo: Any, hi: Any, nd: int = 1, sign: bool = False) -> str:
+    """"v [lo, hi]" (signed with ``sign``); "v" alone without an interval; "–" without a value."""
+    def one(x: Any) -> str:
+        s = fnum(x, nd)
+        if s == "–" or float(s) == 0:
+            return s.lstrip("-")
+        return f"+{s}" if sign and not s.startswith("-") else s
+
+    if math.isnan(num_or_nan(v)):
+        return "–"
+    if math.isnan(num_or_nan(lo)) or math.isnan(num_or_nan(hi)):
+        return one(v)
+    return f"{one(v)} [{one(lo)}, {one(hi)}]"
+
+
+def _split(planners: Mapping[str, Mapping]) -> tuple[list[str], list[str]]:
+    """(claimants, references) in report order."""
+    refs = [p for p in ordered(planners) if planners[p].get("reference")]
+    return [p for p in ordered(planners) if p not in refs], refs
+
+
+def _position_cell(p: str, d: Mapping) -> str:
+    if p == NOTHING:
+        return "0 (reference)"
+    if p == OPTIMAL:
+        return "1 (reference)"
+    return ci(d.get("position"), d.get("position_ci_lo"), d.get("position_ci_hi"), 2)
+
+
+def _below_cell(p: str, d: Mapping) -> str:
+    if p == NOTHING:
+        return "(reference)"
+    b = d.get("below_nothing")
+    txt = ci(d.get("m_minus_nothing"), d.get("m_minus_nothing_ci_lo"), d.get("m_minus_nothing_ci_hi"), sign=True)
+    return txt + (": yes" if b is True else ": no" if b is False else "")
+
+
+def missing_references_sentence(metrics: Mapping) -> Optional[str]:
+    """What the report leaves out when a reference has no runs (None when both have)."""
+    missing = metrics.get("references", {}).get("missing", [NOTHING, OPTIMAL])
+    if not missing:
+        return None
+    names = " and ".join(f"`{m}`" for m in missing)
+    what = "the position column and the comparison with doing nothing are" if NOTHING in missing \
+        else "the position column is"
+    return (f"No runs of the {names} reference{'s' if len(missing) > 1 else ''} in these results, so {what} left "
+            f"out: add {names} to planner.names and rerun the missions stage (the position needs one run of "
+            f"`{NOTHING}` and one of `{OPTIMAL}` on the same missions).")
+
+
+def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Sequence[str],
+                     reference: str = "inter_llm") -> None:
+    """The headline table (deliveries beside m_overall, the position between the references), the
+    paired differences, and the deliverable slots of the scenes."""
+    pl = metrics.get("planners", {})
+    claimants, refs = _split(pl)
+    missing = metrics.get("references", {}).get("missing", [NOTHING, OPTIMAL])
+    with_pos, with_null = not missing, NOTHING not in missing
+    doc.h(2, "Headline: objects delivered, m_overall and position")
+    doc.p("Delivered = distinct goal objects the robot put on a target furniture (Σ sr_obj; at most n per command "
+          "asking for n, a replacement after a failure counts), in all and per mission. m_overall per mission "
+          "(lower is better) charges an unfilled slot γ_man + γ_obj, so a planner can lower it by trying less: read "
+          "it beside the deliveries. Position = (m_nothing − m) / (m_nothing − m_optimal) on the sums over the "
+          "missions all three ran: 0 = as good as doing nothing, 1 = as good as the ground-truth optimum "
+          "(cheapest feasible assignment, executed), below 0 = worse than doing nothing. m − m_nothing is the "
+          "paired difference per mission; \"yes\" when its CI lies below 0 (significantly better than doing "
+          "nothing). Cost per delivered = Σ(γ_nav·cc + t_exe + d) / delivered [s per object]. 95% bootstrap CIs "
+          "(paired ones resample the missions jointly). Reference planners are shown, never judged.")
+    header = ["planner", "missions", "delivered", "delivered / mission [CI]", "m_overall / mission [CI]"]
+    header += ["position [CI]"] if with_pos else []
+    header += ["cost / delivered [s]"]
+    header += ["m − m_nothing [CI]: below?"] if with_null else []
+    rows = []
+    for p in claimants + refs:
+        d = pl[p]
+        row = [plots.label(p) + (" (reference)" if p in refs and "reference" not in plots.label(p) else ""),
+               str(d.get("n_missions")), f"{d.get('delivered', d.get('n_fulfilled'))}/{d.get('n_objects')}",
+               ci(d.get("delivered_per_mission"), d.get("delivered_per_mission_ci_lo"),
+                  d.get("delivered_per_mission_ci_hi"), 2),
+               ci(d.get("m_overall"), d.get("m_overall_ci_lo"), d.get("m_overall_ci_hi"))]
+        row += [_position_cell(p, d)] if with_pos else []
+        row += [fnum(d.get("exec_cost_per_delivered"))]
+        row += [_below_cell(p, d)] if with_null else []
+        rows.append(row)
+    doc.table(header, rows)
+    note = missing_references_sentence(metrics)
+    if note:
+        doc.p(note)
+    comps = metrics.get("comparisons", {})
+    if comps:
+        doc.p(f"Paired differences per mission, {plots.label(reference)} − other planner, on the missions both ran "
+              "(negative m_overall: cheaper; negative delivered: fewer objects):")
+        crow = []
+        for k in sorted(comps, key=lambda k: (bool(comps[k].get("baseline_reference")), k)):
+            c = comps[k]
+            b = str(c.get("baseline", k.split("_vs_", 1)[1]))
+            crow.append([f"{plots.label(reference)} − {plots.label(b)}", str(c.get("n_pairs")),
+                         ci(c.get("delivered_diff"), c.get("delivered_diff_ci_lo"), c.get("delivered_diff_ci_hi"), 2,
+                            sign=True),
+                         ci(c.get("m_overall_diff"), c.get("m_overall_diff_ci_lo"), c.get("m_overall_diff_ci_hi"),
+                            sign=True), _reading(c)])
+        doc.table(["comparison", "pairs", "Δ delivered / mission [CI]", "Δ m_overall / mission [CI]", "reading"],
+                  crow)
+    doc.p(feasibility_sentence(scenes_dir, scene_ids, pl))
+
+
+def _reading(c: Mapping) -> str:
+    """One phrase from the two paired CIs of a comparison."""
+    def side(lo: Any, hi: Any) -> int:
+        lo, hi = num_or_nan(lo), num_or_nan(hi)
+        return 0 if math.isnan(lo) or math.isnan(hi) else (1 if lo > 0 else -1 if hi < 0 else 0)
+
+    m = side(c.get("m_overall_diff_ci_lo"), c.get("m_overall_diff_ci_hi"))
+    d = side(c.get("delivered_diff_ci_lo"), c.get("delivered_diff_ci_hi"))
+    if m < 0 and d < 0:
+        return "lower m_overall by delivering fewer objects"
+    if m < 0:
+        return "lower m_overall, " + ("more objects" if d > 0 else "no delivery difference shown")
+    if m > 0:
+        return "higher m_overall" + (", more objects" if d > 0 else ", fewer objects" if d < 0 else "")
+    return "no m_overall difference shown" + (", more objects" if d > 0 else ", fewer objects" if d < 0 else "")
+
+
+def read_feasibility(scenes_dir: Path, scene_ids: Sequence[str]) -> dict:
+    """Slots asked and fulfillable by measurement, summed over ``scene_ids``' feasibility.json
+    (the scenes stage's, {"totals": {"slots_asked", "slots_fulfillable"}}), read defensively:
+    {"asked", "fulfillable", "found": [ids], "missing": [ids], "unreadable": [(id, why)]}."""
+    out: dict[str, Any] = {"asked": 0, "fulfillable": 0, "found": [], "missing": [], "unreadable": []}
+    for sid in sorted(set(scene_ids)):
+        p = Path(scenes_dir) / sid / "feasibility.json"
+        if not p.is_file():
+            out["missing"].append(sid)
+            continue
+        try:
+            t = read_json(p)["totals"]
+            asked, ful = int(t["slots_asked"]), int(t["slots_fulfillable"])
+        except Exception as e:  # any malformed file: say so in the report, never fail it
+            out["unreadable"].append((sid, f"{type(e).__name__}: {e}"))
+            continue
+        out["asked"] += asked
+        out["fulfillable"] += ful
+        out["found"].append(sid)
+    return out
+
+
+def feasibility_sentence(scenes_dir: Path, scene_ids: Sequence[str], planners: Mapping[str, Mapping]) -> str:
+    """Slots asked vs fulfillable by measurement (or why the report cannot say)."""
+    f = read_feasibility(scenes_dir, scene_ids)
+    parts = []
+    if f["found"]:
+        share = f"{100 * f['fulfillable'] / f['asked']:.0f}%" if f["asked"] else "–"
+        best = max(((planners[p].get("delivered", planners[p].get("n_fulfilled")) or 0, p) for p in planners),
+                   default=None)
+        parts.append(f"Deliverable slots (the scenes stage's feasibility.json, measured in the simulator, over "
+                     f"{len(f['found'])} scene(s) and all their missions): {f['fulfillable']} of {f['asked']} slots "
+                     f"asked ({share}) can be fulfilled at all"
+                     + (f"; the most any planner delivered in these runs is {best[0]} ({plots.label(best[1])})."
+                        if best else "."))
+    if f["missing"]:
+        parts.append(f"No feasibility.json under {scenes_dir} for scene(s) {', '.join(f['missing'])}: how many of "
+                     f"the slots asked can be fulfilled at all is not measured there (the scenes stage writes it).")
+    for sid, why in f["unreadable"]:
+        parts.append(f"{Path(scenes_dir) / sid / 'feasibility.json'} could not be read ({why}); it is left out.")
+    return " ".join(parts) or f"No scenes to read feasibility.json for under {scenes_dir}."
+
+
+# ---- γ_obj -----------------------------------------------------------------------------------
+def break_even_text(c: Mapping, reference: str) -> str:
+    """"γ_obj = 154: Inter-LLM cheaper above it" or "never: ... at every γ_obj ≥ 0"."""
+    ref, b = plots.label(reference), plots.label(str(c.get("baseline")))
+    be = c.get("break_even")
+    if be is None:
+        de = num_or_nan(c.get("exec_diff"))
+        if math.isnan(de):
+            return "–"
+        who = ref if de < 0 else b if de > 0 else None
+        return "never" + (f" ({who} cheaper at every γ_obj ≥ 0)" if who else " (equal at every γ_obj)")
+    above = c.get("reference_lower_above")
+    return (f"{fnum(be)}: {ref} cheaper " + ("above" if above else "below") + f" it, {b} "
+            + ("below" if above else "above"))
+
+
+def gamma_obj_section(doc: Doc, metrics: Mapping, reference: str = "inter_llm") -> None:
+    """Each planner's mean m_overall per mission at each γ_obj, the paired differences and break-evens."""
+    s = metrics.get("gamma_obj_sensitivity", {})
+    gs = s.get("gammas") or []
+    if not gs or not s.get("planners"):
+        return
+    pl = metrics.get("planners", {})
+    cur = metrics.get("settings", {}).get("gamma_obj")
+    doc.h(2, "Sensitivity to γ_obj")
+    doc.p("m_overall is linear in γ_obj: per mission m(γ) = E + γ·U with E = Σ_slots γ_nav·cc + t_exe + d + "
+          "γ_man·(1 − sr_man) [s] and U the undelivered slots, recomputed here from the per-slot rows (this run "
+          f"uses γ_obj = {fnum(cur, 0)}). Mean m_overall per mission [s]:")
+    header = ["planner", "E [s]", "U [slots]"] + [f"γ_obj = {gamma_key(g)}" for g in gs]
+    rows = []
+    claimants, refs = _split({p: pl.get(p, {}) for p in s["planners"]})
+    for p in claimants + refs:
+        d = s["planners"][p]
+        rows.append([plots.label(p), fnum(d.get("exec")), fnum(d.get("undelivered"), 2)]
+                    + [fnum(d.get("m_overall", {}).get(gamma_key(g))) for g in gs])
+    doc.table(header, rows)
+    comps = s.get("comparisons", {})
+    if comps:
+        doc.p(f"Paired difference {plots.label(reference)} − other per mission at each γ_obj [CI] (negative: "
+              f"{plots.label(reference)} cheaper) and the break-even γ_obj where the mean difference "
+              "Δ(γ) = Δ_E + γ·Δ_U crosses 0 (\"never\" when it does not for γ_obj ≥ 0):")
+        crow = []
+        for k in sorted(comps, key=lambda k: (bool(comps[k].get("baseline_reference")), k)):
+            c = comps[k]
+            by = c.get("by_gamma", {})
+            crow.append([f"{plots.label(reference)} − {plots.label(str(c.get('baseline')))}", str(c.get("n_pairs")),
+                         f"{fnum(c.get('exec_diff'))} + γ·({fnum(c.get('undelivered_diff'), 2)})"]
+                        + [ci(by.get(gamma_key(g), {}).get("diff"), by.get(gamma_key(g), {}).get("ci_lo"),
+                              by.get(gamma_key(g), {}).get("ci_hi"), sign=True) for g in gs]
+                        + [break_even_text(c, reference)])
+        doc.table(["comparison", "pairs", "Δ(γ) = Δ_E + γ·Δ_U"] + [f"γ_obj = {gamma_key(g)}" for g in gs]
+                  + ["break-even γ_obj"], crow)
+
+
+# ---- candidate diversity ---------------------------------------------------------------------
+def diversity_section(doc: Doc, metrics: Mapping) -> None:
+    """The share of commands whose candidates take different objects, per planner with candidates."""
+    div = metrics.get("candidate_diversity", {})
+    if not div:
+        return
+    doc.h(2, "Candidate diversity")
+    doc.p("Commands with plan candidates, and the share whose candidates take different objects (at least two "
+          "distinct sets of picked-up objects among them): choosing between candidates can only change what is "
+          "delivered when they differ.")
+    doc.table(["planner", "commands with candidates", "candidates / command", "with different objects", "share"],
+              [[plots.label(p), str(d.get("n_commands")), fnum(d.get("candidates_per_command"), 2),
+                str(d.get("n_diverse")), pct(d.get("share"))] for p, d in ((p, div[p]) for p in ordered(div))])
+
+
+# ---- encodings (multirun) --------------------------------------------------------------------
+def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics: Mapping,
+                     reference: str = "inter_llm") -> None:
+    """Runs that differ only in ``llm.oracle_costs`` and/or ``planner.cost_encoding``: results are
+    (group, variant label, metrics_dir) with one group per setting of every other key
+    (``interllm.stages.report.find_encoding_results``); each variant of a group is paired against
+    the group's paper encoding (``BASE_ENCODING``, else its first variant) on the missions both ran."""
+    groups: dict[str, dict[str, Path]] = {}
+    for g, v, d in results:
+        if (Path(d) / "per_mission.csv").is_file() and (Path(d) / "metrics.json").is_file():
+            groups.setdefault(str(g), {})[str(v)] = Path(d)
+    groups = {g: vs for g, vs in groups.items() if len(vs) >= 2}
+    if not groups:
+        return
+    st = metrics.get("settings", {})
+    n_boot, cov, seed = int(st.get("bootstrap_samples", 2000)), float(st.get("ci", 0.95)), int(st.get("seed", 0))
+    ref = plots.label(reference)
+    doc.h(2, "Cost encoding: class or numeric oracle costs, paper or expected encoding")
+    doc.p(f"{ref} in runs that differ only in llm.oracle_costs (classes: the paper's three cost classes; numeric: "
+          "the measured cost) and/or planner.cost_encoding (paper; expected: plus γ_obj × the chance the action "
+          f"fails outright). Each variant is paired against {BASE_ENCODING} of its group on the missions both ran "
+          "(variant − base; 95% paired bootstrap CIs; the position difference resamples the missions jointly for "
+          f"{ref} and both references of both runs).")
+    rows = []
+    for g in sorted(groups):
+        vs = groups[g]
+        base = BASE_ENCODING if BASE_ENCODING in vs else sorted(vs)[0]
+        base_rows = read_csv(vs[base] / "per_mission.csv")
+        for v in [base] + sorted(set(vs) - {base}):
+            d = read_json(vs[v] / "metrics.json").get("planners", {}).get(reference, {})
+            row = [g or "–", v + (" (base)" if v == base else ""),
+                   ci(d.get("delivered_per_mission"), d.get("delivered_per_mission_ci_lo"),
+                      d.get("delivered_per_mission_ci_hi"), 2),
+                   ci(d.get("m_overall"), d.get("m_overall_ci_lo"), d.get("m_overall_ci_hi")),
+                   ci(d.get("position"), d.get("position_ci_lo"), d.get("position_ci_hi"), 2)]
+            if v == base:
+                row += ["–"] * 4
+            else:
+                c = paired_runs(read_csv(vs[v] / "per_mission.csv"), base_rows, reference, n_boot, cov,
+                                bootstrap_seed(seed, f"encoding:{g}:{v}"))
+                row += [str(c["n_pairs"]),
+                        ci(c["delivered_diff"], c["delivered_diff_ci_lo"], c["delivered_diff_ci_hi"], 2, sign=True),
+                        ci(c["m_overall_diff"], c["m_overall_diff_ci_lo"], c["m_overall_diff_ci_hi"], sign=True),
+                        ci(c["position_diff"], c["position_diff_ci_lo"], c["position_diff_ci_hi"], 2, sign=True)]
+            rows.append(row)
+    doc.table(["runs", "variant", "delivered / mission [CI]", "m_overall / mission [CI]", "position [CI]", "pairs",
+               "Δ delivered [CI]", "Δ m_overall [CI]", "Δ position [CI]"], rows)
