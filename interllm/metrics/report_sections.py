@@ -1,4 +1,4 @@
-"""The report's delivery sections (issue #27), from metrics.json (``interllm.metrics.deliveries``):
+"""The report's delivery sections, from metrics.json (``interllm.metrics.deliveries``):
 
 - ``headline_section``: the first table of the report: per planner objects delivered [CI],
   m_overall [CI], the normalised position between doing nothing (0) and the ground-truth optimum
