@@ -1,4 +1,5 @@
-"""Stage scenes: scene graphs, occupancy grids, MuJoCo worlds, missions and pictures."""
+"""Stage scenes: scene graphs, occupancy grids, MuJoCo worlds, missions, their measured feasibility
+(feasibility.json) and pictures."""
 
 from interllm.llm.backend import preflight
 from interllm.stages.scenes import run_scenes

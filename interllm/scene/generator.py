@@ -15,27 +15,48 @@ detour case exists in every such scene).
 Furniture keeps a free ring of ``placement.free_ring`` m to every other furniture and, on its free
 sides, to the walls; no furniture enters the ``door_clear_depth`` m zone in front of a door.
 Objects rest on surfaces with a placement label: front / deep / high / clutter (thresholds in
-``catalog/furniture.json``). Each catalog command whose target furniture exists receives at least
-``min_objects_per_command`` valid objects (not on its own targets), spread over rooms where possible;
-the paper's three commands must always be satisfiable (else the attempt is redrawn).
-``scene.meta["commands"]`` lists the commands each scene supports.
+``catalog/furniture.json``). How they are chosen is ``scene.object_design``:
+
+- ``legacy`` (the earlier generator, byte for byte): each catalog command whose target furniture
+  exists receives at least ``min_objects_per_command`` valid objects (not on its own targets),
+  spread over rooms where possible, each placed hard (deep, high, clutter) with
+  ``hard_placement_prob``; then random objects up to ``n_objects``.
+- ``graded`` (default): difficulty by design. *Easy* instances first: for every command whose
+  targets exist, ``objects_per_command`` (k, ``mission.objects_per_command``) instances of its
+  categories placed front, at most EASY_DEPTH in from the edge, on furniture below the high shelf
+  that is not one of its targets, on a different furniture (and room) each where one takes it, at a
+  spot with at least EASY_MIN_CELLS grid cells within EASY_REACH where the robot can stand (free on
+  the presumed and the true grid, the true footprint clear) joined to the furniture's anchor. The
+  paper's three commands get k instances each of their own (so the paper's mission can be filled
+  with distinct objects). Then EASY_SPARE more per command, while ``hard_placement_prob`` of the
+  budget stays free; with that share, *medium* (clutter next to an object) and *hard* (deep, high)
+  instances of the commands' categories, command by command, on furniture not holding that category
+  yet; then random objects up to ``n_objects``. On every command target a square of DELIVERY_HALF
+  around the point nearest its anchor stays free of objects: where delivered objects go. The
+  simulator's measurement (``interllm.stages.feasibility``) then says which instances can in fact
+  be delivered; the scene layer only arranges for enough of them.
+
+The paper's three commands must always be satisfiable (else the attempt is redrawn).
+``scene.meta["commands"]`` lists the commands each scene supports (graded: with k easy instances).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
 
 from interllm.config import SceneConfig
 from interllm.core.seeding import scene_seed
 from interllm.errors import UserError
 from interllm.scene.catalog import Catalog, CommandSpec, load_catalog
 from interllm.scene.floor_plans import HALLWAY, hallway_rects, plan_walls, shared_edges
-from interllm.scene.geometry import free_edges, r4, rect_gap, rects_overlap
+from interllm.scene.geometry import footprint_distance, free_edges, r4, rect_gap, rects_overlap
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
-from interllm.scene.grid import rasterize
+from interllm.scene.grid import OccupancyGrid, clear_of_obstacles, rasterize
 from interllm.scene.reachability import unreachable
 
 MAX_ATTEMPTS = 25
@@ -45,6 +66,14 @@ EXTRA_DOOR_FRACTION = 0.5  # share of the non-tree adjacencies that get a door (
 DOOR_END_MARGIN = 0.3  # [m] door opening keeps this far from the wall ends
 DOOR_ZONE_SIDE = 0.3  # [m] furniture-free zone extends this far beside the opening
 WALL_GAP = 0.01  # [m] between a wall's inner face and furniture backs
+# graded object design (scene.object_design=graded): what makes an instance "easy"
+EASY_DEPTH = 0.05  # [m] an easy object's box stands at most this far in from the surface margin
+EASY_REACH = 0.5  # [m] easy: floor the robot can stand on within this horizontal distance of the object
+EASY_MIN_CELLS = 5  # easy: at least this many such grid cells (sim.n_l base poses by default)
+EASY_SPARE = 1  # easy instances each command gets beyond objects_per_command (margin for failures)
+POSE_WINDOW = 1.0  # [m] the stand cells join the anchor within this far beyond EASY_REACH (sim.base_poses)
+DELIVERY_HALF = 0.35  # [m] half side of the square kept free on a command's target, nearest its anchor
+ANCHOR_RINGS = (0.25, 0.5, 1.0)  # [m] beyond robot_radius: where a furniture's anchor may be (sim.belief)
 
 
 class SceneGenerationError(UserError, RuntimeError):
@@ -72,6 +101,11 @@ class _Build:
     furniture: dict[str, Furniture] = field(default_factory=dict)
     objects: dict[str, SceneObject] = field(default_factory=dict)
     counters: dict[str, int] = field(default_factory=dict)
+    k: int = 3  # graded design: easy instances each command gets (mission.objects_per_command)
+    footprint_extra: float = 0.05  # [m] graded design: the robot's true footprint beyond robot_radius
+    easy: set[str] = field(default_factory=set)  # graded design: the easy instances placed
+    # graded design: furniture id -> the part of its surface kept free of objects (x0, y0, x1, y1) [m]
+    keep_clear: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
 
     def new_id(self, kind: str) -> str:
         self.counters[kind] = self.counters.get(kind, 0) + 1
@@ -365,8 +399,13 @@ def _place_all_furniture(b: _Build) -> None:
 
 
 # ---- objects -------------------------------------------------------------------------------------
-def _place_object(b: _Build, category: str, fid: str, mode: str, tries: int = 25) -> str | None:
-    """Put one object of ``category`` on furniture ``fid`` with a placement mode; None if no room."""
+def _place_object(b: _Build, category: str, fid: str, mode: str, tries: int = 25,
+                  accept: Callable[[float, float], bool] | None = None, easy: bool = False) -> str | None:
+    """Put one object of ``category`` on furniture ``fid`` with a placement mode; None if no room.
+
+    easy: a front object whose box stands at most EASY_DEPTH [m] in from the surface margin.
+    accept(x, y): a further test of the spot's centre [m] (graded design: robot floor within reach).
+    """
     pl = b.cat.placement
     oc = b.cat.objects[category]
     f = b.furniture[fid]
@@ -387,6 +426,8 @@ def _place_object(b: _Build, category: str, fid: str, mode: str, tries: int = 25
                 sx, sy = sy, sx
                 perp = sy if e in ("S", "N") else sx
             dmin, dmax = perp / 2 + m, max(perp / 2 + m, pl.front_edge_max)
+            if easy:
+                dmax = min(dmax, dmin + EASY_DEPTH)
             dist = b.rng.uniform(dmin, dmax)
             if e in ("S", "N"):
                 lo, hi = fx0 + sx / 2 + m, fx1 - sx / 2 - m
@@ -427,6 +468,10 @@ def _place_object(b: _Build, category: str, fid: str, mode: str, tries: int = 25
                 or box[3] > fy1 - m + 1e-9:
             continue
         if any(rect_gap(box, _obox(o)) < pl.object_gap - 1e-9 for o in existing):
+            continue
+        if fid in b.keep_clear and rects_overlap(box, b.keep_clear[fid]):
+            continue
+        if accept is not None and not accept(x, y):
             continue
         oid = b.new_id(category)
         b.objects[oid] = SceneObject(oid, category, fid, (x, y, r4(f.surface_height + oc.size[2] / 2)),
@@ -525,6 +570,15 @@ def _place_all_objects(b: _Build) -> dict[str, bool]:
         supported[cmd.id] = len(valid(cmd)) >= K
         if cmd.paper and not supported[cmd.id]:
             raise _Retry(f"paper command {cmd.id!r} has fewer than {K} valid objects")
+    _fill_budget(b)
+    return {c.id: supported[c.id] for c in cat.commands}
+
+
+def _fill_budget(b: _Build) -> None:
+    """Random objects on random furniture (hard with hard_placement_prob) up to scene.n_objects;
+    raises when the surfaces are full."""
+    cat, budget = b.cat, b.cfg.n_objects
+    fids = list(b.furniture)
     fails = in_a_row = 0
     while len(b.objects) < budget:
         fid = fids[int(b.rng.integers(len(fids)))]
@@ -544,7 +598,218 @@ def _place_all_objects(b: _Build) -> dict[str, bool]:
                              "(raise scene.n_furniture or lower scene.n_objects)")
         else:
             in_a_row = 0
+
+
+# ---- graded object design ------------------------------------------------------------------------
+@dataclass
+class _Approach:
+    """The floor a robot can work from (graded design): ``free`` cells (free on the presumed and the
+    true grid), ``stand`` cells among them (the true footprint clear of obstacles), and the anchor
+    cell (row, col) of each furniture, where a navigation to it ends (as ``sim.belief`` picks it)."""
+
+    grid: OccupancyGrid
+    free: np.ndarray
+    stand: np.ndarray
+    anchors: dict[str, tuple[int, int] | None]
+
+
+def _approach_map(b: _Build) -> _Approach:
+    """The grids of the house as furnished (objects do not change them) and the furniture anchors."""
+    scene = SceneGraph(id="draft", seed=0, rooms=b.rooms, walls=b.walls, doors=b.doors, furniture=b.furniture)
+    res = b.cfg.grid_resolution
+    presumed = rasterize(scene, res, b.robot_radius, doors="presumed")
+    true = rasterize(scene, res, b.robot_radius, doors="true")
+    labels, n = ndimage.label(presumed.free, structure=np.ones((3, 3), dtype=bool))
+    main = labels == (int(np.argmax(np.bincount(labels.ravel())[1:])) + 1) if n else np.zeros_like(presumed.free)
+    anchor_ok = presumed.free & main & clear_of_obstacles(presumed.free, b.footprint_extra, res)
+    free = presumed.free & true.free
+    ap = _Approach(presumed, free, clear_of_obstacles(free, b.footprint_extra, res), {})
+    cells = np.argwhere(anchor_ok)
+    pts = presumed.cell_to_world(cells)
+    for fid, f in b.furniture.items():
+        ap.anchors[fid] = _anchor_cell(cells, pts, f, b.robot_radius)
+    return ap
+
+
+def _anchor_cell(cells: np.ndarray, pts: np.ndarray, f: Furniture, robot_radius: float) -> tuple[int, int] | None:
+    """The cell of ``cells`` (world centres ``pts`` [m]) within robot_radius + ANCHOR_RINGS of the
+    footprint closest to the furniture's centre; None if there is none."""
+    if not len(cells):
+        return None
+    d_fp = footprint_distance(pts, f.footprint)
+    for ring in ANCHOR_RINGS:
+        ok = d_fp <= robot_radius + ring
+        if ok.any():
+            dc = np.round(np.hypot(pts[ok, 0] - f.center[0], pts[ok, 1] - f.center[1]), 9)
+            r, c = cells[ok][int(np.argmin(dc))]
+            return int(r), int(c)
+    return None
+
+
+def _delivery_zones(b: _Build, ap: _Approach, fids: set[str]) -> dict[str, tuple[float, float, float, float]]:
+    """Where the objects a command delivers will go on each of ``fids`` (the commands' targets): the
+    surface within DELIVERY_HALF [m] (a square) of the point nearest the furniture's anchor, where a
+    place puts them first; kept free of objects so a target takes objects_per_command of them."""
+    zones = {}
+    for fid in sorted(fids):
+        anchor = ap.anchors.get(fid)
+        if anchor is None:
+            continue
+        x0, y0, x1, y1 = b.furniture[fid].footprint
+        ax, ay = (float(v) for v in ap.grid.cell_to_world(np.array(anchor)))
+        px, py = min(max(ax, x0), x1), min(max(ay, y0), y1)
+        zones[fid] = (px - DELIVERY_HALF, py - DELIVERY_HALF, px + DELIVERY_HALF, py + DELIVERY_HALF)
+    return zones
+
+
+def _easy_spot(ap: _Approach, fid: str, x: float, y: float) -> bool:
+    """True when at least EASY_MIN_CELLS stand cells lie within EASY_REACH [m] of (x, y) [m] and join
+    the furniture's anchor over free cells near the spot (where the robot's base poses come from)."""
+    anchor = ap.anchors.get(fid)
+    if anchor is None:
+        return False
+    g, m = ap.grid, EASY_REACH + POSE_WINDOW
+    ax, ay = (float(v) for v in g.cell_to_world(np.array(anchor)))
+    lo = g.world_to_cell((min(x - m, ax - 0.5), min(y - m, ay - 0.5)))
+    hi = g.world_to_cell((max(x + m, ax + 0.5), max(y + m, ay + 0.5)))
+    r0, c0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
+    r1, c1 = min(int(hi[0]) + 1, g.shape[0]), min(int(hi[1]) + 1, g.shape[1])
+    labels, _ = ndimage.label(ap.free[r0:r1, c0:c1], structure=np.ones((3, 3), dtype=bool))
+    home = labels[anchor[0] - r0, anchor[1] - c0]
+    if home == 0:
+        return False
+    rr, cc = np.mgrid[r0:r1, c0:c1]
+    xy = g.cell_to_world(np.stack([rr, cc], -1))
+    near = np.hypot(xy[..., 0] - x, xy[..., 1] - y) <= EASY_REACH
+    return int((near & ap.stand[r0:r1, c0:c1] & (labels == home)).sum()) >= EASY_MIN_CELLS
+
+
+def _easy_of(b: _Build, cmd: CommandSpec, targets: set[str], exclude: set[str]) -> list[str]:
+    """The command's easy instances (sorted ids) not on its targets and not in ``exclude``."""
+    return [oid for oid in sorted(b.easy - exclude)
+            if b.objects[oid].category in cmd.categories and b.objects[oid].furniture not in targets]
+
+
+def _category_weights(b: _Build, cats: list[str], open_cmds: list[CommandSpec]) -> np.ndarray:
+    """Draw weights of object categories: shared with commands still short of easy instances (fewer
+    objects serve them all), fewer when the house already has instances of it (variety)."""
+    have = {c: 0 for c in cats}
+    for o in b.objects.values():
+        if o.category in have:
+            have[o.category] += 1
+    w = np.array([(1.0 + sum(c in c2.categories for c2 in open_cmds)) / (1.0 + have[c]) for c in cats])
+    return w / w.sum()
+
+
+def _grow_easy(b: _Build, ap: _Approach, cmd: CommandSpec, targets: set[str], have: list[str],
+               open_cmds: list[CommandSpec]) -> bool:
+    """Place one more easy instance of ``cmd``, on a furniture not holding one of ``have`` yet where
+    one takes it (in another room where possible); False if no category fits anywhere."""
+    pl = b.cat.placement
+    used = {b.objects[o].furniture for o in have}
+    rooms = {b.furniture[f].room for f in used}
+    hosts_of = {c: [f for f, fu in b.furniture.items() if c in b.cat.furniture[fu.category].holds
+                    and f not in targets and fu.surface_height < pl.high_min
+                    and ap.anchors.get(f) is not None] for c in cmd.categories}
+    fresh = {c: [f for f in hs if f not in used] for c, hs in hosts_of.items()}
+    if any(fresh.values()):
+        hosts_of = fresh
+    cats = [c for c in cmd.categories if hosts_of[c]]
+    while cats:
+        c = cats[int(b.rng.choice(len(cats), p=_category_weights(b, cats, open_cmds)))]
+        hosts = [h for h in hosts_of[c] if b.furniture[h].room not in rooms] or hosts_of[c]
+        for j in b.rng.permutation(len(hosts)):
+            fid = hosts[int(j)]
+            oid = _place_object(b, c, fid, "front", easy=True, accept=lambda x, y, f=fid: _easy_spot(ap, f, x, y))
+            if oid is not None:
+                b.easy.add(oid)
+                return True
+        cats.remove(c)
+    return False
+
+
+def _fill_easy(b: _Build, ap: _Approach, cmd: CommandSpec, targets: dict[str, set[str]], want: int,
+               exclude: set[str], limit: int, open_cmds: list[CommandSpec]) -> list[str]:
+    """Easy instances of ``cmd`` (not in ``exclude``) up to ``want`` while the house has fewer than
+    ``limit`` objects; returns their ids."""
+    have = _easy_of(b, cmd, targets[cmd.id], exclude)
+    while len(have) < want and len(b.objects) < limit:
+        if not _grow_easy(b, ap, cmd, targets[cmd.id], have, open_cmds):
+            break
+        have = _easy_of(b, cmd, targets[cmd.id], exclude)
+    return have
+
+
+def _place_graded_objects(b: _Build) -> dict[str, bool]:
+    """The graded design (module doc): easy instances per command first (the paper's commands on
+    instances of their own, so the paper's mission can be filled), a spare each, then medium and
+    hard instances of the commands' categories, then random ones up to scene.n_objects."""
+    cat, budget, k = b.cat, b.cfg.n_objects, b.k
+    cmds = list(cat.paper_commands()) + [c for c in cat.commands if not c.paper]
+    targets = {c.id: _targets(b, c) for c in cmds}
+    ap = _approach_map(b)
+    b.keep_clear = _delivery_zones(b, ap, set().union(*targets.values()))
+    supported: dict[str, bool] = {c.id: False for c in cmds}
+    reserved: dict[str, set[str]] = {}  # paper command -> its own easy instances
+
+    def others(cmd: CommandSpec) -> set[str]:
+        return set().union(*(v for c, v in reserved.items() if c != cmd.id)) if cmd.paper else set()
+
+    for cmd in cmds:
+        if not targets[cmd.id]:
+            if cmd.paper:
+                raise _Retry(f"no target furniture for paper command {cmd.id!r}")
+            continue
+        open_cmds = [c for c in cmds if targets[c.id] and c is not cmd and not supported[c.id]]
+        have = _fill_easy(b, ap, cmd, targets, k, others(cmd), budget, open_cmds)
+        supported[cmd.id] = len(have) >= k
+        if cmd.paper:
+            if not supported[cmd.id]:
+                raise _Retry(f"paper command {cmd.id!r} has fewer than {k} easy instances (raise scene.n_objects "
+                             f"or lower mission.objects_per_command)")
+            reserved[cmd.id] = set(have[:k])
+    keep = int(round(b.cfg.hard_placement_prob * budget))  # left for medium and hard instances
+    for cmd in cmds:
+        if supported[cmd.id]:
+            _fill_easy(b, ap, cmd, targets, k + EASY_SPARE, others(cmd), budget - keep, [])
+    _place_graded_extras(b, [c for c in cmds if supported[c.id]], targets, min(budget, len(b.objects) + keep))
+    _fill_budget(b)
     return {c.id: supported[c.id] for c in cat.commands}
+
+
+def _place_graded_extras(b: _Build, cmds: list[CommandSpec], targets: dict[str, set[str]], limit: int) -> None:
+    """Medium (clutter) and hard (deep, high) instances of the commands' categories, command by
+    command in a random order, until the house has ``limit`` objects or no furniture takes one."""
+    while len(b.objects) < limit:
+        placed = False
+        for j in b.rng.permutation(len(cmds)):
+            for level in ("medium", "hard"):
+                if len(b.objects) < limit and _add_graded(b, cmds[int(j)], targets[cmds[int(j)].id], level):
+                    placed = True
+        if not placed:
+            return
+
+
+def _add_graded(b: _Build, cmd: CommandSpec, targets: set[str], level: str) -> bool:
+    """One ``level`` ("medium": clutter next to an object already there; "hard": deep or high)
+    instance of a category of ``cmd``, on a furniture (not a target) holding no instance of that
+    category yet, preferring the categories with fewest instances of this level."""
+    modes_of = {"medium": ("clutter",), "hard": ("deep", "high")}[level]
+    count = {c: 0 for c in cmd.categories}
+    for o in b.objects.values():
+        if o.category in count and o.placement in modes_of:
+            count[o.category] += 1
+    for c in sorted(cmd.categories, key=lambda c: (count[c], b.rng.random())):
+        here = {o.furniture for o in b.objects.values() if o.category == c}
+        offers = {f: [m for m in _modes_for(b, f, c) if m in modes_of] for f, fu in b.furniture.items()
+                  if c in b.cat.furniture[fu.category].holds and f not in targets and f not in here}
+        hosts = sorted(f for f, ms in offers.items() if ms)
+        for j in b.rng.permutation(len(hosts)):
+            fid = hosts[int(j)]
+            mode = offers[fid][int(b.rng.integers(len(offers[fid])))]
+            if _place_object(b, c, fid, mode) is not None:
+                return True
+    return False
 
 
 def capacity(cfg: SceneConfig, cat: Catalog) -> tuple[int, int]:
@@ -585,16 +850,24 @@ def check_capacity(cfg: SceneConfig, cat: Catalog) -> None:
 
 
 def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
-                   catalog: Catalog | None = None) -> SceneGraph:
+                   catalog: Catalog | None = None, objects_per_command: int | None = None,
+                   footprint_radius: float | None = None) -> SceneGraph:
     """Generate scene ``index`` of an experiment, deterministic in (cfg, index).
 
     cfg: scene config (counts, room sizes [m], door widths [m], probabilities, seed).
     robot_radius: base radius [m] used to size partly closed doors (gap < 2 * radius) and to check
         that every furniture is reachable on the presumed and the true grid.
+    objects_per_command: graded design: the easy instances each command gets
+        (``mission.objects_per_command``; None: the catalog's ``min_objects_per_command``).
+    footprint_radius: [m] graded design: the base's true contact radius (``sim.footprint_radius``);
+        easy spots need floor clear of obstacles by it (None: robot_radius + 0.05 m).
     """
     cfg.validate()
     cat = catalog or load_catalog()
     check_capacity(cfg, cat)
+    k = cat.min_objects_per_command if objects_per_command is None else int(objects_per_command)
+    extra = 0.05 if footprint_radius is None else max(0.0, float(footprint_radius) - robot_radius)
+    graded = cfg.object_design == "graded"
     seed = int(cfg.seed) + int(index)
     if seed < 0:
         raise ValueError(f"scene.seed + index must be >= 0, got {seed}; use a non-negative scene.seed")
@@ -604,11 +877,11 @@ def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
     fallback = None
     for attempt in range(MAX_ATTEMPTS):
         rng = np.random.default_rng(scene_seed(seed, attempt))
-        b = _Build(cat, cfg, rng, robot_radius)
+        b = _Build(cat, cfg, rng, robot_radius, k=k, footprint_extra=extra)
         try:
             (_hallway_plan if cfg.layout == "hallway" else _floor_plan)(b)
             _place_all_furniture(b)
-            supported = _place_all_objects(b)
+            supported = (_place_graded_objects if graded else _place_all_objects)(b)
         except _Retry as e:
             reasons.append(str(e))
             continue
@@ -617,7 +890,8 @@ def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
             furniture=b.furniture, objects=b.objects,
             meta={"generator": "interllm.scene.generator", "preset": cfg.name, "attempt": attempt,
                   "commands": supported, "robot_radius": robot_radius,
-                  "grid_resolution": cfg.grid_resolution})
+                  "grid_resolution": cfg.grid_resolution,
+                  **({"object_design": "graded", "objects_per_command": k} if graded else {})})
         bad = []
         for doors in ("presumed", "true"):
             grid = rasterize(scene, cfg.grid_resolution, robot_radius, doors=doors)

@@ -1,19 +1,42 @@
-"""Stage scenes: scene graphs (generated or imported), occupancy grids, MuJoCo worlds, missions and
-top-down pictures."""
+"""Stage scenes: scene graphs (generated or imported), occupancy grids, MuJoCo worlds, missions,
+the measured feasibility of the missions' commands and top-down pictures."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from interllm.config import ExperimentConfig
-from interllm.io import atomic_write_bytes, atomic_write_text
+from interllm.io import atomic_write_bytes, atomic_write_text, write_json
 from interllm.progress import progress
 from interllm.scene.generator import generate_scene
+from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid, rasterize
-from interllm.scene.missions import generate_missions, save_missions
+from interllm.scene.missions import draw_missions, save_missions
 from interllm.scene.render import render_topdown
 from interllm.scene.validate import load_scene_file
 from interllm.sim.build import build_world_spec
+from interllm.stages.feasibility import feasibility_record, measure_scene
+
+
+def make_scene(cfg: ExperimentConfig, index: int) -> SceneGraph:
+    """Scene ``index`` of the experiment: the imported house (scene.import_path) or a generated one."""
+    if cfg.scene.import_path:
+        return load_scene_file(cfg.scene.import_path)
+    return generate_scene(cfg.scene, index, robot_radius=cfg.sim.robot_radius,
+                          objects_per_command=cfg.mission.objects_per_command,
+                          footprint_radius=cfg.sim.footprint_radius)
+
+
+def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid]) -> tuple[list, dict]:
+    """The missions of a scene and its ``feasibility.json`` document: the simulator measures which
+    instances each command can get (``stages.feasibility``), the draw uses that with
+    mission.feasibility=measured (and records it either way)."""
+    meas = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, cfg.mission.objects_per_command, grids)
+    drawn = draw_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
+                          footprint_radius=cfg.sim.footprint_radius, fulfillable=meas.fulfillable())
+    design = scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
+    record = feasibility_record(meas, drawn, cfg.mission.feasibility, design, cfg.mission.commands_per_mission)
+    return [m for m, _ in drawn], record
 
 
 def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
@@ -23,8 +46,7 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
     ids = []
     n = 1 if cfg.scene.import_path else cfg.scene.n_scenes
     for i in progress(range(n), "scenes", total=n):
-        scene = load_scene_file(cfg.scene.import_path) if cfg.scene.import_path else generate_scene(
-            cfg.scene, i, robot_radius=cfg.sim.robot_radius)
+        scene = make_scene(cfg, i)
         d = out_dir / scene.id
         d.mkdir(parents=True, exist_ok=True)
         atomic_write_text(d / "scene.json", scene.to_json())
@@ -32,9 +54,9 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
         true = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="true")
         atomic_write_bytes(d / "grid.npz", OccupancyGrid.pair_npz_bytes(presumed, true, cfg.sim.robot_radius))
         atomic_write_text(d / "scene.xml", build_world_spec(scene, robot=False, sim_cfg=cfg.sim).to_xml())
-        save_missions(d / "missions.json",
-                      generate_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
-                                        footprint_radius=cfg.sim.footprint_radius))
+        missions, record = scene_missions(cfg, scene, {"presumed": presumed, "true": true})
+        save_missions(d / "missions.json", missions)
+        write_json(d / "feasibility.json", record)
         render_topdown(scene, d / "topdown.png", grid=presumed)
         ids.append(scene.id)
     return ids
