@@ -97,7 +97,8 @@ def conclusions(metrics: dict) -> dict[str, str]:
     """The statements the report makes from ``metrics`` (see the module docstring)."""
     out: dict[str, str] = {}
     planners = metrics.get("planners", {})
-    ranked = sorted((p for p in planners if _num(planners[p].get("m_overall"))),
+    ranked = sorted((p for p in planners if _num(planners[p].get("m_overall"))
+                     and not planners[p].get("reference")),  # references are shown, never ranked
                     key=lambda p: (planners[p]["m_overall"], p))
     if ranked:
         out["ordering on mean m_overall (best first)"] = " < ".join(ranked)
