@@ -58,14 +58,19 @@ def _encoding(c: dict) -> tuple[str, str]:
 
 
 def find_oracle_results(*roots: Path) -> list[tuple[float, Path]]:
-    """Jobs of ``experiment=oracle_sweep`` multiruns under ``roots`` with metrics:
-    [(llm.oracle_error, metrics_dir)], sorted by the error. When the jobs also sweep the cost
+    """Jobs of ``experiment=oracle_sweep`` (and ``encoding_comparison``, whose jobs are oracle runs
+    too) multiruns under ``roots`` with metrics: [(llm.oracle_error, metrics_dir)], sorted by the
+    error, one job per error (an oracle_sweep one first). When the jobs also sweep the cost
     encoding (``find_encoding_results``), only those with the paper's encoding (or, without any,
     the first encoding by name) form the oracle axis, one job per error."""
-    jobs = _jobs(roots, "oracle_sweep")
+    jobs = _jobs(roots, "oracle_sweep") + _jobs(roots, "encoding_comparison")
     encs = {_encoding(c) for c, _ in jobs}
     keep = ENCODING_DEFAULTS if ENCODING_DEFAULTS in encs or not encs else min(encs)
-    return sorted((float(c["llm"]["oracle_error"]), m) for c, m in jobs if _encoding(c) == keep)
+    by_error: dict[float, Path] = {}
+    for c, m in jobs:  # an oracle_sweep job first, then an encoding_comparison one at the same error
+        if _encoding(c) == keep:
+            by_error.setdefault(float(c["llm"]["oracle_error"]), m)
+    return sorted(by_error.items())
 
 
 # keys that do not change what a run measures (where it writes, how many threads / workers)
