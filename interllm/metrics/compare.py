@@ -84,11 +84,12 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
+def flatten(d: Any, prefix: str = "") -> dict[str, Any]:
+    """A nested mapping as {"a.b.c": leaf}."""
     if isinstance(d, dict):
         out: dict[str, Any] = {}
         for k, v in d.items():
-            out.update(_flatten(v, f"{prefix}{k}."))
+            out.update(flatten(v, f"{prefix}{k}."))
         return out
     return {prefix[:-1]: d}
 
@@ -129,7 +130,7 @@ def compare_metrics(reference: dict, current: dict) -> Comparison:
     if reference == current:
         c = conclusions(current)
         return Comparison(identical=True, conclusions_before=c, conclusions_after=c)
-    a, b = _flatten(reference), _flatten(current)
+    a, b = flatten(reference), flatten(current)
     changes = [MetricChange(k, a.get(k), b.get(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
     return Comparison(identical=False, changes=changes, conclusions_before=conclusions(reference),
                       conclusions_after=conclusions(current))

@@ -30,6 +30,7 @@ from interllm.planners.context import PlannerContext
 from interllm.planners.execution import execute_plan, finish, new_result
 from interllm.planning.assignment import Delivery, cheapest_assignment
 from interllm.planning.costs import path_length
+from interllm.planning.plans import assemble_deliveries
 from interllm.scene.graph import Command
 
 START = "@robot"  # the robot's current pose as a search location
@@ -113,23 +114,6 @@ class OptimalPlanner:
         return nav
 
     def plan_of(self, ctx: PlannerContext, chosen: list[Delivery]) -> Plan:
-        """navigate -> pickup -> navigate -> place per delivery (a navigate to where the robot is is
-        omitted); an object in hand is first put on the first delivery's target."""
-        scene, state = ctx.world.scene, ctx.world.state
-        out: list[Action] = []
-        cur = state.at_furniture
-
-        def go(fid: str) -> None:
-            nonlocal cur
-            if cur != fid:
-                out.append(Action("navigate", fid, room=scene.furniture[fid].room))
-                cur = fid
-        if state.holding is not None and chosen:
-            go(chosen[0].target)
-            out.append(Action("place", chosen[0].target, obj=state.holding))
-        for d in chosen:
-            go(d.source)
-            out.append(Action("pickup", d.source, obj=d.obj))
-            go(d.target)
-            out.append(Action("place", d.target, obj=d.obj))
-        return tuple(out)
+        """navigate -> pickup -> navigate -> place per delivery; an object in hand is first put on
+        the first delivery's target (``planning.plans.assemble_deliveries``)."""
+        return assemble_deliveries(ctx.world.scene, ctx.world.state, [(d.obj, d.target) for d in chosen])

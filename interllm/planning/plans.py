@@ -4,7 +4,7 @@ its parser, and the navigate -> pickup -> navigate -> place assembly of a delive
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Optional
 
 from interllm.core.actions import Action, Plan, State
 from interllm.scene.graph import SceneGraph
@@ -55,6 +55,15 @@ def parse_plan(parsed: Any) -> Plan:
 def assemble_plan(scene: SceneGraph, state: State, objects: Sequence[str], target: str) -> Plan:
     """navigate -> pickup -> navigate -> place for each object (a held object is delivered first);
     a navigate to the furniture the robot is already at is omitted."""
+    return assemble_deliveries(scene, state, [(o, target) for o in objects], held_target=target)
+
+
+def assemble_deliveries(scene: SceneGraph, state: State, deliveries: Sequence[tuple[str, str]],
+                        held_target: Optional[str] = None) -> Plan:
+    """navigate -> pickup -> navigate -> place for each (object, target) delivery, from the
+    object's furniture in ``scene``; a held object is first put on ``held_target`` (default: the
+    first delivery's target; dropped when there is neither). A navigate to the furniture the robot
+    is already at is omitted."""
     out: list[Action] = []
     cur = state.at_furniture
 
@@ -64,10 +73,11 @@ def assemble_plan(scene: SceneGraph, state: State, objects: Sequence[str], targe
             out.append(Action("navigate", fid, room=scene.furniture[fid].room))
             cur = fid
 
-    if state.holding is not None:
-        go(target)
-        out.append(Action("place", target, obj=state.holding))
-    for o in objects:
+    held_target = held_target or (deliveries[0][1] if deliveries else None)
+    if state.holding is not None and held_target is not None:
+        go(held_target)
+        out.append(Action("place", held_target, obj=state.holding))
+    for o, target in deliveries:
         f = scene.objects[o].furniture
         go(f)
         out.append(Action("pickup", f, obj=o))

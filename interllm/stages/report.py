@@ -9,6 +9,7 @@ from pathlib import Path
 import yaml
 
 from interllm.config import ExperimentConfig
+from interllm.metrics.compare import flatten
 from interllm.metrics.report import build_report
 from interllm.metrics.report_sections import ENCODING_DEFAULTS, ENCODING_KEYS, encoding_label
 
@@ -77,15 +78,6 @@ def find_oracle_results(*roots: Path) -> list[tuple[float, Path]]:
 _IRRELEVANT = ("data_dir", "jobs", "verbose", "llm.cache_dir", "llm.cache_mode", "llm.n_threads")
 
 
-def _flat(c: object, prefix: str = "") -> dict[str, str]:
-    if isinstance(c, dict):
-        out: dict[str, str] = {}
-        for k, v in c.items():
-            out.update(_flat(v, f"{prefix}{k}."))
-        return out
-    return {prefix[:-1]: c if isinstance(c, str) else repr(c)}
-
-
 def find_encoding_results(*roots: Path) -> list[tuple[str, str, Path]]:
     """Jobs under ``roots`` (any experiment) with metrics that differ only in ``llm.oracle_costs``
     and/or ``planner.cost_encoding`` (read from each job's ``.hydra/config.yaml``, as the other
@@ -102,7 +94,8 @@ def find_encoding_results(*roots: Path) -> list[tuple[str, str, Path]]:
                 jobs.append((c, metrics))
     groups: dict[tuple, dict[str, Path]] = {}
     for c, m in jobs:
-        rest = {k: v for k, v in _flat(c).items() if k not in ENCODING_KEYS and k not in _IRRELEVANT}
+        rest = {k: v if isinstance(v, str) else repr(v) for k, v in flatten(c).items()  # lists: hashable
+                if k not in ENCODING_KEYS and k not in _IRRELEVANT}
         groups.setdefault(tuple(sorted(rest.items())), {}).setdefault(encoding_label(*_encoding(c)), m)
     groups = {k: v for k, v in groups.items() if len(v) >= 2}
     varying = sorted({k for g in groups for k, v in g if any(dict(h).get(k) != v for h in groups)})
