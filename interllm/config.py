@@ -142,11 +142,15 @@ class LLMConfig:
     constrain_names: bool = True  # enumerate valid scene-graph names in schemas
     repair_retries: int = 2  # re-asks after malformed output
     calibrate: bool = True  # score calibration against a content-free prompt
-    # score mode: the scene graph is expanded hierarchically (planning/scoring.py): the room_beam
+    # the scene graph is expanded hierarchically. Score mode (planning/scoring.py): the room_beam
     # rooms, then the furniture_beam furniture in them, are the only ones whose objects are scored
-    # one by one (0: no limit; both 0: every object, whatever the house's size)
+    # one by one (0: no limit; both 0: every object, whatever the house's size). Generate mode
+    # (planning/expansion.py): the LLM chooses up to room_beam rooms, and the plan requests show
+    # only those (0: the whole scene graph); a selection with fewer usable objects than the command
+    # asks for is widened by another request, at most room_widenings times per command
     room_beam: int = 3
     furniture_beam: int = 6
+    room_widenings: int = 2
     max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail
     # llm=oracle: the share of the oracle's answers (relevance, target, cost class) replaced by
     # seeded random ones (interllm/planning/oracle.py); read only when llm.backend is oracle
@@ -191,6 +195,8 @@ class LLMConfig:
         _check(0 <= self.room_beam <= 1000, "llm.room_beam", f"must be in [0, 1000] (0: every room), got {self.room_beam}")
         _check(0 <= self.furniture_beam <= 10000, "llm.furniture_beam",
                f"must be in [0, 10000] (0: all furniture of the expanded rooms), got {self.furniture_beam}")
+        _check(0 <= self.room_widenings <= 10, "llm.room_widenings",
+               f"must be in [0, 10] (selection requests added when the chosen rooms run short), got {self.room_widenings}")
         _check(0.0 <= self.oracle_error <= 1.0, "llm.oracle_error", f"must be in [0, 1], got {self.oracle_error}")
         _choice(self.oracle_costs, "llm.oracle_costs", ORACLE_COSTS)
         _choice(self.candidate_diversity, "llm.candidate_diversity", CANDIDATE_DIVERSITY)

@@ -120,7 +120,11 @@ def test_regeneration_bound_with_an_always_infeasible_llm():
     scene, mission = tiny_scene(), tiny_mission()
     cands = generate_initial_candidates(scene, mission, client, cfg)
     n_initial = len(client.requests)
-    assert n_initial == cfg.planner.M * len(mission.commands)
+    # a plan per candidate; the scripted answer names no room, so each command's room selection is
+    # widened to its bound (then the plans look at the robot's room)
+    purposes = [r.purpose for r in client.requests]
+    assert purposes.count("candidates") == cfg.planner.M * len(mission.commands)
+    assert purposes.count("rooms_for_candidates") == (1 + cfg.llm.room_widenings) * len(mission.commands)
     rec, world = run("inter_llm", cfg, client=client, cands=cands)
     s = rec["commands"][0]["summary"]
     assert s["dropped_candidates"] == cfg.planner.M

@@ -5,7 +5,7 @@ from test_planners_fakes import FakeScoreClient, ScriptedClient, tiny_mission, t
 from interllm.config import ExperimentConfig
 from interllm.core.actions import Action, State
 from interllm.core.seeding import planning_seed
-from interllm.planning import generation, plans, scoring
+from interllm.planning import expansion, generation, plans, scoring
 from interllm.planning.feasibility import check_plan
 from interllm.planning.memory import KnownCosts
 from interllm.planning.proposers import make_proposer
@@ -87,7 +87,8 @@ def test_parse_plan_and_schema():
 def test_generate_plans_one_call_per_candidate_with_sample_index():
     ans = {"actions": [{"action": "navigate", "furniture": "counter_1", "room": "kitchen_1", "object": ""}]}
     client = ScriptedClient(ans)
-    plans = generation.generate_plans(client, tiny_scene(), START, tiny_mission().commands[0], ExperimentConfig().llm, 3, 2)
+    plans = generation.generate_plans(client, expansion.flat_view(tiny_scene()), START, tiny_mission().commands[0],
+                                      ExperimentConfig().llm, M=3, n_objects=2)
     assert len(plans) == 3 and [r.options.sample_index for r in client.requests] == [0, 1, 2]
     text = client.requests[0].messages[0].content
     assert text.index('"rooms"') < text.index("Command: Put an apple")  # static part first

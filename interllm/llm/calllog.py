@@ -17,6 +17,29 @@ from typing import Any, Optional
 from interllm.core import jsonfmt
 
 LABEL_KEYS = ("stage", "planner", "scene", "mission", "command")
+# A room-selection request (generate mode, planning/expansion.py) is named after the plan request it
+# serves: "rooms_for_candidates", "rooms_for_regeneration", "rooms_for_replan"
+SELECTION_PREFIX = "rooms_for_"
+# the phase of a command's planning a request belongs to, by its purpose (score mode's proposal
+# requests are the "score_*" purposes other than score_cost)
+PHASE_OF_PURPOSE = {"candidates": "proposal", "regeneration": "repair", "replan": "replan",
+                    "cost_inference": "cost_inference", "score_cost": "cost_inference"}
+PHASES = ("proposal", "repair", "replan", "cost_inference", "other")
+
+
+def phase_of(purpose: str) -> str:
+    """The phase (one of ``PHASES``) a request of ``purpose`` belongs to; a room selection belongs to
+    the phase of the plan request it serves."""
+    if purpose.startswith(SELECTION_PREFIX):
+        return phase_of(purpose[len(SELECTION_PREFIX):])
+    if purpose in PHASE_OF_PURPOSE:
+        return PHASE_OF_PURPOSE[purpose]
+    return "proposal" if purpose.startswith("score_") else "other"
+
+
+def is_selection(purpose: str) -> bool:
+    """Whether a request of ``purpose`` chose rooms (generate mode's expansion) rather than a plan."""
+    return purpose.startswith(SELECTION_PREFIX)
 
 
 class CallLog:

@@ -452,3 +452,12 @@ def make_client(cfg: LLMConfig, call_log_path: Optional[str | Path] = None,
     ctx = tuple(sorted((str(k), str(v)) for k, v in (context.items() if isinstance(context, dict)
                                                       else context)))
     return LLMClient(_Core(cfg, be, cache, call_log), ctx)
+
+
+def complete_or_none(client: Any, request: LLMRequest) -> Optional[LLMResponse]:
+    """``client.complete(request)``, with an answer that stays malformed after the client's repair
+    retries turned into ``None`` (the caller falls back: an empty plan, an "unknown" label)."""
+    try:
+        return client.complete(request)
+    except LLMOutputError:
+        return None

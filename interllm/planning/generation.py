@@ -1,8 +1,10 @@
 """Generate mode (the paper's): the LLM writes plans as JSON under a schema, one plan per call
-(candidate j uses ``sample_index=j`` and is asked to differ from the plans already written). With
-``llm.constrain_names`` the schema enumerates the valid ids of the scene graph. Repair feeds the
-feasibility checker's violation texts back; a replan after an execution failure feeds the failure
-text back. Cost inference asks for {"cost": easy|medium|hard|unknown}.
+(candidate j uses ``sample_index=j`` and is asked to differ from the plans already written). Each
+request shows a :class:`~interllm.planning.expansion.SceneView`: the whole scene graph, or the rooms
+chosen for the command (``planning.expansion``); with ``llm.constrain_names`` the schema enumerates
+the view's ids. Repair feeds the feasibility checker's violation texts back; a replan after an
+execution failure feeds the failure text back. Cost inference asks for
+{"cost": easy|medium|hard|unknown}.
 
 An answer that stays malformed after the client's repair retries becomes the empty plan (which the
 feasibility loop then handles) or the label "unknown".
@@ -15,20 +17,20 @@ from typing import Any, Optional
 
 from interllm.config import LLMConfig
 from interllm.core.actions import Action, Plan, State
-from interllm.llm.errors import LLMOutputError
+from interllm.llm.client import complete_or_none
 from interllm.llm.prompts import load_template
 from interllm.llm.types import LLMOptions, LLMRequest, LLMResponse, Message
 from interllm.planning.costs import COST_LABELS
+from interllm.planning.expansion import SceneView
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
-from interllm.planning.plans import parse_plan, plan_schema
+from interllm.planning.plans import parse_plan
 from interllm.planning.text import (
     action_placement,
     describe_manipulation,
+    known_costs_text,
     known_manipulations_text,
     plan_text,
-    prompt_fields,
-    scene_json,
 )
 from interllm.scene.graph import Command, SceneGraph
 
@@ -44,64 +46,60 @@ def _options(cfg: LLMConfig, sample_index: int = 0, plan: bool = True) -> LLMOpt
                       sample_index=sample_index)
 
 
-def _complete(client, request: LLMRequest) -> Optional[LLMResponse]:
-    """client.complete, with an answer that stays malformed after the client's repair retries
-    turned into ``None``."""
-    try:
-        return client.complete(request)
-    except LLMOutputError:
-        return None
-
-
 def _parsed(resp: Optional[LLMResponse]) -> Any:
     return None if resp is None else resp.parsed
 
 
-def generate_plans(client, scene: SceneGraph, state: State, command: Command, cfg: LLMConfig,
-                   M: int, n_objects: int, known: Optional[KnownCosts] = None,
-                   context: tuple = ()) -> list[Plan]:
-    """``M`` plans written by the LLM, one call per plan (sample_index j)."""
+def _fields(view: SceneView, state: State, command: Command, n_objects: int, known: Optional[KnownCosts]) -> dict:
+    """The fields every plan-writing template shares; ``view``: what it shows of the scene graph."""
+    return {"scene": view.text, "state": state.describe(), "command": command.text, "n_objects": n_objects,
+            "known_costs": known_costs_text(known)}
+
+
+def generate_plans(client, view: SceneView, state: State, command: Command, cfg: LLMConfig, *, M: int,
+                   n_objects: int, known: Optional[KnownCosts] = None, context: tuple = ()) -> list[Plan]:
+    """``M`` plans written by the LLM over ``view``, one call per plan (sample_index j)."""
     tpl = load_template("candidates")
-    schema = plan_schema(scene, cfg.constrain_names)
+    schema = view.schema(cfg.constrain_names)
     plans: list[Plan] = []
     for j in range(M):
         prev = ""
         if plans:
             prev = "\nPlans already proposed (write a different one):\n" + "\n".join(
                 f"Plan {k + 1}: " + "; ".join(str(a) for a in p) for k, p in enumerate(plans)) + "\n"
-        text = tpl.render(previous=prev, **prompt_fields(scene, state, command, n_objects, known))
-        resp = _complete(client, LLMRequest(purpose="candidates", messages=(Message("user", text),),
-                                          schema=schema, options=_options(cfg, j), template=tpl.name,
-                                          context=context))
+        text = tpl.render(previous=prev, **_fields(view, state, command, n_objects, known))
+        resp = complete_or_none(client, LLMRequest(purpose="candidates", messages=(Message("user", text),),
+                                                   schema=schema, options=_options(cfg, j), template=tpl.name,
+                                                   context=context))
         plans.append(parse_plan(_parsed(resp)))
     return plans
 
 
-def regenerate_plan_llm(client, scene: SceneGraph, state: State, command: Command, cfg: LLMConfig,
-                        plan: Plan, report: FeasibilityReport, n_objects: int, attempt: int,
-                        sample_index: int = 0, known: Optional[KnownCosts] = None,
-                        context: tuple = ()) -> Plan:
+def regenerate_plan_llm(client, view: SceneView, state: State, command: Command, cfg: LLMConfig, *, plan: Plan,
+                        report: FeasibilityReport, n_objects: int, attempt: int, sample_index: int = 0,
+                        known: Optional[KnownCosts] = None, context: tuple = ()) -> Plan:
+    """``plan`` rewritten by the LLM after the feasibility checker's ``report`` (round ``attempt`` of
+    candidate ``sample_index``)."""
     tpl = load_template("regeneration")
     text = tpl.render(plan=plan_text(plan), feedback=report.feedback() or "(none)",
-                      **prompt_fields(scene, state, command, n_objects, known))
-    resp = _complete(client, LLMRequest(
-        purpose="regeneration", messages=(Message("user", text),),
-        schema=plan_schema(scene, cfg.constrain_names),
+                      **_fields(view, state, command, n_objects, known))
+    resp = complete_or_none(client, LLMRequest(
+        purpose="regeneration", messages=(Message("user", text),), schema=view.schema(cfg.constrain_names),
         options=_options(cfg, sample_index * 100 + attempt + 1), template=tpl.name, context=context))
     return parse_plan(_parsed(resp))
 
 
-def replan_llm(client, scene: SceneGraph, state: State, command: Command, cfg: LLMConfig,
-               executed: Sequence[str], failure: str, n_objects: int, excluded: Sequence[str],
-               attempt: int, context: tuple = ()) -> Plan:
+def replan_llm(client, view: SceneView, state: State, command: Command, cfg: LLMConfig, *,
+               executed: Sequence[str], failure: str, n_objects: int, excluded: Sequence[str], attempt: int,
+               context: tuple = ()) -> Plan:
+    """The rest of ``command`` written by the LLM after an execution failure (``failure``: its text)."""
     tpl = load_template("replan")
-    text = tpl.render(scene_json=scene_json(scene), state=state.describe(), command=command.text,
+    text = tpl.render(scene=view.text, state=state.describe(), command=command.text,
                       executed="\n".join(executed) or "(nothing)", failure=failure,
                       excluded=", ".join(excluded) or "(none)", n_objects=n_objects)
-    resp = _complete(client, LLMRequest(
-        purpose="replan", messages=(Message("user", text),),
-        schema=plan_schema(scene, cfg.constrain_names), options=_options(cfg, attempt),
-        template=tpl.name, context=context))
+    resp = complete_or_none(client, LLMRequest(
+        purpose="replan", messages=(Message("user", text),), schema=view.schema(cfg.constrain_names),
+        options=_options(cfg, attempt), template=tpl.name, context=context))
     return parse_plan(_parsed(resp))
 
 
@@ -115,7 +113,7 @@ def infer_cost_by_generation(client, action: Action, scene: SceneGraph, known: K
     tpl = load_template("cost_inference")
     where = action_placement(action, scene) if cfg.placement_attributes else None
     text = tpl.render(known=known_text, action=describe_manipulation(action, scene, where))
-    resp = _complete(client, LLMRequest(purpose="cost_inference", messages=(Message("user", text),),
+    resp = complete_or_none(client, LLMRequest(purpose="cost_inference", messages=(Message("user", text),),
                                         schema=COST_SCHEMA, options=_options(cfg, plan=False), template=tpl.name,
                                         context=context))
     parsed = _parsed(resp)

@@ -3,7 +3,7 @@ its parser, and the navigate -> pickup -> navigate -> place assembly of a delive
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any, Optional
 
 from interllm.core.actions import Action, Plan, State
@@ -11,18 +11,26 @@ from interllm.scene.graph import SceneGraph
 
 
 def plan_schema(scene: SceneGraph, constrain_names: bool = True) -> dict:
-    """JSON schema of one plan {"actions": [...]}; ids enumerated when ``constrain_names``."""
-    def ids(d):
-        return {"type": "string", "enum": sorted(d) + [""]} if constrain_names else {"type": "string"}
+    """JSON schema of one plan {"actions": [...]} over the whole scene graph; ids enumerated when
+    ``constrain_names``."""
+    return plan_schema_of(scene.rooms, scene.furniture, scene.objects, constrain_names)
+
+
+def plan_schema_of(rooms: Iterable[str], furniture: Iterable[str], objects: Iterable[str],
+                   constrain_names: bool = True) -> dict:
+    """JSON schema of one plan {"actions": [...]} whose ids are among the given rooms, furniture and
+    objects (enumerated when ``constrain_names``; an empty room or object id is allowed)."""
+    def ids(d, empty: bool = True):
+        return {"type": "string", "enum": sorted(d) + ([""] if empty else [])} if constrain_names \
+            else {"type": "string"}
 
     action = {
         "type": "object",
         "properties": {
             "action": {"type": "string", "enum": ["navigate", "pickup", "place"]},
-            "furniture": ({"type": "string", "enum": sorted(scene.furniture)} if constrain_names
-                          else {"type": "string"}),
-            "room": ids(scene.rooms),
-            "object": ids(scene.objects),
+            "furniture": ids(furniture, empty=False),
+            "room": ids(rooms),
+            "object": ids(objects),
         },
         "required": ["action", "furniture", "room", "object"],
         "additionalProperties": False,

@@ -27,7 +27,7 @@ from typing import Any, Optional, Protocol
 from interllm.config import LLMConfig
 from interllm.core.actions import Action, Plan, State
 from interllm.llm.types import LLMClientProtocol
-from interllm.planning import generation, oracle, scoring
+from interllm.planning import expansion, generation, oracle, scoring
 from interllm.planning.costs import decode_cost
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
@@ -91,23 +91,44 @@ COST_INFERRERS: Registry = Registry("cost inference mode", "llm.cost_inference_m
 
 @PLAN_PROPOSERS.register("generate")
 class GeneratePlans:
-    """The LLM writes, repairs and replans plans (the paper's method)."""
+    """The LLM writes, repairs and replans plans (the paper's method). With ``llm.room_beam`` > 0 it
+    first chooses the rooms a command's plans look at (``planning.expansion``); the selection is kept
+    per command and planner and reused, widened when short, by its repairs and replans."""
 
     def __init__(self, client: LLMClientProtocol, cfg: LLMConfig) -> None:
         self.client, self.cfg = client, cfg
+        self._selections: dict[tuple, expansion.RoomSelection] = {}
+
+    def view(self, request: expansion.SelectionRequest, exclude: Sequence[str]) -> expansion.SceneView:
+        """What ``request``'s plan request shows: the whole scene graph (``llm.room_beam`` = 0), or the
+        command's selected rooms, selected or widened now if needed."""
+        scene = request.scene
+        if not self.cfg.room_beam:
+            return expansion.flat_view(scene)
+        key = (scene.id, request.command.id, tuple(sorted(request.context)))
+        sel = expansion.select(self.client, request, self.cfg, exclude, self._selections.get(key))
+        self._selections[key] = sel
+        return expansion.rooms_view(scene, sel.rooms, request.state.holding)
 
     def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
-        return generation.generate_plans(self.client, scene, state, command, self.cfg, n_plans, n_objects, known,
-                                         context)
+        view = self.view(expansion.SelectionRequest(scene, state, command, n_objects, known, "candidates", context),
+                         exclude.objects)
+        return generation.generate_plans(self.client, view, state, command, self.cfg, M=n_plans, n_objects=n_objects,
+                                         known=known, context=context)
 
     def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
                context):
-        return generation.regenerate_plan_llm(self.client, scene, state, command, self.cfg, plan, report, n_objects,
-                                              round_index, candidate, known, context)
+        view = self.view(expansion.SelectionRequest(scene, state, command, n_objects, known, "regeneration", context),
+                         exclude.objects)
+        return generation.regenerate_plan_llm(self.client, view, state, command, self.cfg, plan=plan, report=report,
+                                              n_objects=n_objects, attempt=round_index, sample_index=candidate,
+                                              known=known, context=context)
 
     def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
-        return generation.replan_llm(self.client, scene, state, command, self.cfg, executed, failure, n_objects,
-                                     exclude.objects, attempt, context)
+        view = self.view(expansion.SelectionRequest(scene, state, command, n_objects, None, "replan", context),
+                         exclude.objects)
+        return generation.replan_llm(self.client, view, state, command, self.cfg, executed=executed, failure=failure,
+                                     n_objects=n_objects, excluded=exclude.objects, attempt=attempt, context=context)
 
 
 @PLAN_PROPOSERS.register("score")

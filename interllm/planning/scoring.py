@@ -119,7 +119,7 @@ def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig,
     "<category> on the <furniture> in the <room>" for the objects the hierarchy expands (module doc)."""
     if not scene.objects or not scene.furniture:
         raise ValueError(f"scene {scene.id!r} has no objects or no furniture to plan with")
-    kc = known_costs_text(known, scene)
+    kc = known_costs_text(known)
     cats = sorted({o.category for o in scene.objects.values()})
     tpl_o = load_template("score_objects")
     base = {"known_costs": kc, "command": command.text}

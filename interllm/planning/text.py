@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 from typing import Optional
 
-from interllm.core.actions import Action, Plan, State
+from interllm.core.actions import Action, Plan
 from interllm.planning.costs import encode_cost
 from interllm.planning.memory import KnownCosts
-from interllm.scene.graph import Command, SceneGraph
+from interllm.scene.graph import SceneGraph
 from interllm.scene.placement import Placement, placement_of, placement_text, surface_placement
 
 
@@ -61,7 +61,7 @@ def known_manipulations_text(known: Optional[KnownCosts], scene: SceneGraph, pla
                      f"{encode_cost(r.cost)}" for r in known.maned)
 
 
-def known_costs_text(known: Optional[KnownCosts], scene: SceneGraph) -> str:
+def known_costs_text(known: Optional[KnownCosts]) -> str:
     """The measured costs shown to the planner LLM (Inter-LLM's later commands); '' when none."""
     if known is None or len(known) == 0:
         return ""
@@ -77,10 +77,3 @@ def known_costs_text(known: Optional[KnownCosts], scene: SceneGraph) -> str:
 def plan_text(plan: Plan) -> str:
     """A plan as numbered lines ('(empty)' for none)."""
     return "\n".join(f"{i + 1}. {a}" for i, a in enumerate(plan)) or "(empty)"
-
-
-def prompt_fields(scene: SceneGraph, state: State, command: Command, n_objects: int,
-                  known: Optional[KnownCosts]) -> dict:
-    """The fields every plan-writing template shares."""
-    return {"scene_json": scene_json(scene), "state": state.describe(), "command": command.text,
-            "n_objects": n_objects, "known_costs": known_costs_text(known, scene)}
