@@ -161,9 +161,14 @@ def _generate_loop(real_server, tmp_path, overrides: dict) -> None:
     run_all(from_dict({**base, "llm": llm}), tmp_path / "live")
     calls = [json.loads(x) for x in (tmp_path / "live" / "candidates" / "llm_calls.jsonl").read_text().splitlines()]
     assert calls and all(c["backend"] == "openai" and not c["cache_hit"] for c in calls)
-    assert {c["purpose"] for c in calls} == {"candidates"}
+    assert {c["purpose"] for c in calls} == {"rooms_for_candidates", "candidates"}  # rooms first (expansion)
     runs = [json.loads(x) for x in (tmp_path / "live" / "runs" / "llm_calls.jsonl").read_text().splitlines()]
     assert "regeneration" in {c["purpose"] for c in runs}  # the checker's violations went back to the model
+    usage = json.loads((tmp_path / "live" / "metrics" / "llm_usage.json").read_text())
+    for planner, u in usage["missions"].items():  # every planner's requests, counted by phase
+        assert u["requests"] == sum(1 for c in runs if c["planner"] == planner)
+        assert u["requests"] == sum(p["requests"] for p in u["phases"].values())
+    assert sum(u["phases"].get("repair", {}).get("requests", 0) for u in usage["missions"].values()) >= 1
     probe = json.loads((tmp_path / "live" / "candidates" / "llm_probe.json").read_text())
     assert probe["json_schema"] == "json_object" and probe["logprobs"] is True
     assert json.loads((tmp_path / "live" / "runs" / "provenance.json").read_text())["llm_probe"] == probe

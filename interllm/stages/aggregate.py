@@ -1,5 +1,6 @@
 """Stage aggregate: per-object/command/mission metrics, CIs, paired comparisons (DVC metrics and
-plots), and the environment the runs were made in."""
+plots), the LLM requests and tokens per command by phase (llm_usage.json), and the environment the
+runs were made in."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ from pathlib import Path
 
 from interllm.config import ExperimentConfig
 from interllm.io import read_json, write_json
-from interllm.metrics.compute import aggregate
+from interllm.metrics.compute import aggregate, load_runs
+from interllm.metrics.llm_usage import llm_usage
 from interllm.numerics import environment_record
 
 
@@ -20,6 +22,10 @@ def run_aggregate(cfg: ExperimentConfig, runs_dir: Path, scenes_dir: Path, out_d
     if candidates_dir is not None:
         logs["candidates"] = Path(candidates_dir) / "llm_calls.jsonl"
     metrics = aggregate(Path(runs_dir), Path(scenes_dir), cfg, out_dir=Path(out_dir), call_logs=logs)
+    commands: dict[str, int] = {}
+    for rec in load_runs(runs_dir):
+        commands[rec.planner] = commands.get(rec.planner, 0) + len(rec.commands)
+    write_json(Path(out_dir) / "llm_usage.json", llm_usage(logs, commands))
     prov_path = Path(runs_dir) / "provenance.json"
     prov = read_json(prov_path) if prov_path.is_file() else {}
     write_json(Path(out_dir) / "environment.json", environment_record(prov))
