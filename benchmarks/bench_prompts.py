@@ -10,7 +10,7 @@ continuations + calibration), LLM wall seconds, and the relevance of the candida
 objects they take that the command asks for; the catalog's ground truth). Settings:
 
 - ``flat, one at a time``: every object scored (llm.room_beam = furniture_beam = 0), one decode per
-  continuation (the code before #18);
+  continuation (the flat setting);
 - ``flat, batched``: every object, continuations decoded together;
 - ``hierarchical, batched``: the defaults (room_beam 3, furniture_beam 6).
 """
