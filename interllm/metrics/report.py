@@ -452,6 +452,8 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     _summary_section(doc, metrics, reference)
     sections.gamma_obj_section(doc, metrics, reference)
     sections.diversity_section(doc, metrics)
+    if (metrics_dir / "llm_usage.json").is_file():
+        sections.llm_usage_section(doc, read_json(metrics_dir / "llm_usage.json"))
 
     # Table III
     doc.h(2, "Table III: per-object metrics (ours, paper in parentheses)")

@@ -273,6 +273,31 @@ def diversity_section(doc: Doc, metrics: Mapping) -> None:
                 str(d.get("n_diverse")), pct(d.get("share"))] for p, d in ((p, div[p]) for p in ordered(div))])
 
 
+def llm_usage_section(doc: Doc, usage: Mapping) -> None:
+    """The LLM requests and prompt tokens per command of each planner, by phase (``metrics.llm_usage``),
+    and in generate mode the room selections and the share of commands whose selection was widened."""
+    runs = usage.get("missions", {})
+    if not runs:
+        return
+    doc.h(2, "LLM requests per command, by phase")
+    doc.p("Every request the missions stage made (answered from the cache or not), per command the planner ran: "
+          "requests / prompt tokens. A room selection (generate mode) counts in the phase of the plan request it "
+          "serves; the selection columns say how many there were and the share of commands whose selection had "
+          "to be widened (data/metrics/llm_usage.json).")
+    phases = ("proposal", "repair", "replan", "cost_inference")
+    rows = []
+    for p in ordered(runs):
+        u, sel = runs[p], runs[p].get("room_selection", {})
+        cells = []
+        for ph in phases:
+            d = u.get("phases", {}).get(ph, {}).get("per_command")
+            cells.append("–" if d is None else f"{fnum(d['requests'], 2)} / {fnum(d['tokens_in'], 0)}")
+        rows.append([plots.label(p), str(u.get("commands")), *cells,
+                     f"{fnum(u['per_command']['requests'], 2)} / {fnum(u['per_command']['tokens_in'], 0)}",
+                     fnum(u["per_command"].get("selection_requests"), 2), pct(sel.get("widened_share"))])
+    doc.table(["planner", "commands", *phases, "all", "room selections / command", "widened"], rows)
+
+
 # ---- encodings (multirun) --------------------------------------------------------------------
 def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics: Mapping,
                      reference: str = "inter_llm") -> None:
