@@ -1,4 +1,4 @@
-"""The last bad-input holes (issue #30): each case ends in one message naming the problem and the
+"""Bad input: each case ends in one message naming the problem and the
 fix (a config key, file or URL), exit status 2 where a user's input is at fault, and nothing already
 written is lost. One group of tests per numbered item of the issue; the OpenAI-compatible cases run
 against a fake server on 127.0.0.1 (tests/openai_fixture.py)."""

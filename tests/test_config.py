@@ -119,3 +119,22 @@ def test_scene_conf_files_match_the_catalog_presets(size):
     preset = scene_config(size)
     assert (cfg.scene.n_rooms, cfg.scene.n_furniture, cfg.scene.n_objects) == (
         preset.n_rooms, preset.n_furniture, preset.n_objects)
+
+
+def _differences(a: dict, b: dict, prefix: str = "") -> list[str]:
+    out = []
+    for k in sorted(set(a) | set(b)):
+        if isinstance(a.get(k), dict) and isinstance(b.get(k), dict):
+            out += _differences(a[k], b[k], f"{prefix}{k}.")
+        elif a.get(k, "<missing>") != b.get(k, "<missing>"):
+            out.append(f"{prefix}{k}: conf/ {a.get(k, '<missing>')!r}, interllm/config.py {b.get(k, '<missing>')!r}")
+    return out
+
+
+def test_the_composed_default_is_the_dataclass_default():
+    """conf/ (what runs use) and the dataclasses (what ExperimentConfig() in tests and code gives) hold
+    the same defaults: a value changed in one place only is named here."""
+    from dataclasses import asdict
+
+    composed = asdict(to_config(compose([], typed=False)))
+    assert _differences(composed, asdict(ExperimentConfig())) == []

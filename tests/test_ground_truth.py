@@ -1,4 +1,4 @@
-"""Ground truth for every cost inference (#17): ``World.measure_manipulation`` measures a pickup or
+"""Ground truth for every cost inference: ``World.measure_manipulation`` measures a pickup or
 place by the same N_l-trial protocol the robot runs, in a scratch copy that leaves the mission
 untouched, and every inference Inter-LLM makes is recorded beside that measurement."""
 

@@ -1,4 +1,4 @@
-"""Deliveries first (issue #27): the counting of replacements, delivered and cost per delivered beside
+"""Deliveries first: the counting of replacements, delivered and cost per delivered beside
 m_overall, the position between the nothing and optimal references, the delivery check of the
 claims, the γ_obj sensitivity and its break-even, candidate diversity, deliverable slots and the
 encoding pairs of a multirun; worked out by hand on hand-built records and tables."""

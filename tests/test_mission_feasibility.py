@@ -1,4 +1,4 @@
-"""Missions that can be fulfilled (issue #27): the graded generator, the simulator's measurement of
+"""Missions that can be fulfilled: the graded generator, the simulator's measurement of
 what each command can get (stages/feasibility.py), the matching-aware mission draw, and the legacy
 path left as it was."""
 

@@ -1,4 +1,4 @@
-"""Score-mode prompts that stay small as houses grow (#18): rooms, then furniture, then objects,
+"""Score-mode prompts that stay small as houses grow: rooms, then furniture, then objects,
 expanding only what scored best (``planning.scoring.expanded_objects``)."""
 
 from __future__ import annotations
@@ -74,7 +74,7 @@ def test_what_the_model_reads_per_command_on_huge_is_at_most_twice_the_paper_hou
     paper, huge = _requests("paper")[1], _requests("huge")[1]
     assert huge <= 2 * paper, (paper, huge)
     flat = ExperimentConfig()
-    flat.llm.room_beam = flat.llm.furniture_beam = 0  # every object scored: the code before #18
+    flat.llm.room_beam = flat.llm.furniture_beam = 0  # every object scored: the flat setting
     assert _requests("huge", flat)[1] > 20 * paper
 
 

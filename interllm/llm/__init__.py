@@ -1,4 +1,5 @@
-"""LLM layer: one cached, logged client over a backend (embedded llama.cpp, Ollama).
+"""LLM layer: one cached, logged client over a backend (embedded llama.cpp, Ollama, any
+OpenAI-compatible server, or the ground-truth oracle).
 
     from interllm.llm import make_client, LLMRequest, Message
     client = make_client(cfg.llm, call_log_path="data/runs/llm_calls.jsonl", context={"stage": "candidates"})
@@ -8,8 +9,8 @@
 
 Modules: ``types`` (requests and responses), ``backend`` (the Backend protocol and factory),
 ``client`` (cache + call log + schema repair), ``cache``, ``calllog``, ``schema``, ``health``
-(failure share), ``deadline``, ``prompts``, ``errors``; backends ``embedded`` and
-``ollama_backend``; ``testing`` holds a deterministic test backend (never imported here).
+(failure share), ``deadline``, ``prompts``, ``errors``; backends ``embedded``, ``ollama_backend``,
+``openai_backend`` and ``oracle_backend``; ``testing`` holds a deterministic test backend (never imported here).
 """
 
 from interllm.llm import embedded, ollama_backend, openai_backend, oracle_backend  # noqa: F401  (each registers its backend)
