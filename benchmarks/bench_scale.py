@@ -112,7 +112,8 @@ def generate_one(rooms: int, setting: str, base_url: str, tokenizer) -> dict:
     first command's proposal and repairs (module doc)."""
     from interllm.config import ExperimentConfig
     from interllm.llm import make_client
-    from interllm.metrics.llm_usage import planner_usage, read_calls
+    from interllm.llm.calllog import read_records
+    from interllm.metrics.llm_usage import planner_usage
     from interllm.planners.candidates import start_state
     from interllm.planning.expansion import flat_view
     from interllm.planning.feasibility import check_plan
@@ -147,7 +148,7 @@ def generate_one(rooms: int, setting: str, base_url: str, tokenizer) -> dict:
                                        known=None, exclude=Exclusions(), context=ctx)
         wall = time.perf_counter() - t0
         client.close()
-        u = planner_usage(read_calls(Path(tmp) / "calls.jsonl"))["bench"]
+        u = planner_usage(read_records(Path(tmp) / "calls.jsonl"))["bench"]
     return {**base, "over_context": False, "requests": u["requests"], "tokens": u["tokens_in"], "wall_s": wall,
             "selection": u["selection_requests"], "repairs": u["phases"].get("repair", {}).get("requests", 0),
             "widened": u["room_selection"]["widened"]}

@@ -8,6 +8,7 @@ recorder uses it). The log is diagnostic output: latency is wall time and never 
 
 from __future__ import annotations
 
+import json
 import os
 import threading
 from collections.abc import Callable
@@ -83,6 +84,21 @@ class CallLog:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def read_records(path: str | os.PathLike) -> list[dict]:
+    """The records of a JSONL call log, in order; a line cut by a crash is skipped and a missing log
+    has none."""
+    p = Path(path)
+    if not p.is_file():
+        return []
+    out = []
+    for line in p.read_text(encoding="utf-8", errors="replace").splitlines():
+        try:
+            out.append(json.loads(line))
+        except ValueError:
+            continue
+    return out
 
 
 def make_record(*, kind: str, purpose: str, context: tuple[tuple[str, str], ...], backend: str,

@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -58,6 +57,7 @@ from interllm.core.results import ActionResult
 from interllm.core.seeding import bootstrap_seed
 from interllm.errors import UserError
 from interllm.io import atomic_write_text, read_json, write_json
+from interllm.llm.calllog import read_records
 from interllm.metrics import capability, manipulation, stats
 
 MANIPULATION_KINDS = ("pickup", "place")
@@ -112,14 +112,7 @@ def call_log_counts(path: str | os.PathLike) -> dict:
     """Calls and failed calls (an error: unparseable after the repairs, or the backend failed) of a
     JSONL call log, in all and per planner; a missing log counts nothing."""
     out: dict[str, Any] = {"calls": 0, "failed": 0, "failed_by_planner": {}}
-    p = Path(path)
-    if not p.is_file():
-        return out
-    for line in p.read_text(encoding="utf-8", errors="replace").splitlines():
-        try:
-            r = json.loads(line)
-        except ValueError:
-            continue  # a line cut by a crash
+    for r in read_records(path):
         out["calls"] += 1
         if r.get("error"):
             out["failed"] += 1

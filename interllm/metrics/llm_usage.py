@@ -10,29 +10,13 @@ aggregate stage as ``metrics/llm_usage.json`` beside metrics.json.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Iterable, Mapping
-from pathlib import Path
 from typing import Any, Optional
 
-from interllm.llm.calllog import PHASES, is_selection, phase_of
+from interllm.llm.calllog import PHASES, is_selection, phase_of, read_records
 
 SHARED = "(candidates stage)"  # the planner label of the shared initial candidates' calls
-
-
-def read_calls(path: str | os.PathLike) -> list[dict]:
-    """The records of a JSONL call log (a line cut by a crash is skipped; a missing log is empty)."""
-    p = Path(path)
-    if not p.is_file():
-        return []
-    out = []
-    for line in p.read_text(encoding="utf-8", errors="replace").splitlines():
-        try:
-            out.append(json.loads(line))
-        except ValueError:
-            continue
-    return out
 
 
 def _empty() -> dict[str, int]:
@@ -82,5 +66,5 @@ def _summary(d: dict, n: int) -> dict:
 def llm_usage(call_logs: Mapping[str, str | os.PathLike], commands: Optional[Mapping[str, int]] = None) -> dict:
     """{stage: planner_usage} over the call logs ``{stage: llm_calls.jsonl}``; ``commands``: the
     commands each planner ran (the missions stage's per-command means divide by it)."""
-    return {stage: planner_usage(read_calls(path), commands if stage == "missions" else None)
+    return {stage: planner_usage(read_records(path), commands if stage == "missions" else None)
             for stage, path in sorted(call_logs.items())}

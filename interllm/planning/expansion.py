@@ -183,11 +183,9 @@ def select(client, req: SelectionRequest, cfg: LLMConfig, exclude: Iterable[str]
     exclude = tuple(exclude)
     sel = start or RoomSelection(ask_rooms(client, req, cfg, (), 0))
     while (not sel.rooms or usable_objects(req.scene, sel.rooms, req.state, exclude) < req.n_objects) \
-            and sel.widenings < cfg.room_widenings:
+            and sel.widenings < cfg.room_widenings and len(sel.rooms) < len(req.scene.rooms):
         more = ask_rooms(client, req, cfg, sel.rooms, sel.widenings + 1)
         sel = RoomSelection(sel.rooms + more, sel.widenings + 1)
-        if not more and len(sel.rooms) == len(req.scene.rooms):
-            break
     if not sel.rooms and req.state.at_room in req.scene.rooms:
         sel = RoomSelection((req.state.at_room,), sel.widenings)
     return sel
