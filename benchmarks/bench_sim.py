@@ -1,7 +1,7 @@
 """Simulator benchmark on a generated paper-size scene (9 rooms, 26 furniture, 30 objects).
 
 Prints:
-1. IK solves per second on the small per-furniture model (what sim/manipulator.py uses) vs the
+1. IK solves per second on the small per-furniture model (what sim/arm_ik.py builds) vs the
    same solve on the whole-house model (all free joints frozen with mink.DofFreezingTask);
 2. navigation execution speed as a multiple of simulated time (goal >= 100x), and the cost of
    one contact check (mj_kinematics + mj_collision) vs a full mj_forward;
@@ -33,8 +33,8 @@ from interllm.core.actions import Action  # noqa: E402
 from interllm.core.frames import yaw_quat_wxyz  # noqa: E402
 from interllm.scene.generator import generate_scene  # noqa: E402
 from interllm.scene.missions import generate_missions  # noqa: E402
-from interllm.sim import manipulator as man  # noqa: E402
-from interllm.sim.base_poses import window_poses  # noqa: E402
+from interllm.sim import arm_ik  # noqa: E402
+from interllm.sim.base_poses import PRE_GRASP_HEIGHT, window_poses  # noqa: E402
 from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK  # noqa: E402
 from interllm.sim.world import World  # noqa: E402
 
@@ -57,9 +57,9 @@ def ik_benchmark(world: World, n_targets: int = 40) -> None:
         ik = world.manipulator.local_ik(world.scene, o.furniture)
         ik.model.body_pos[ik.base_body] = (bx, by, 0.0)
         ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(byaw)
-        rot = man._topdown_rotation((bx, by), o.position[:2])
+        rot = arm_ik.topdown_rotation((bx, by), o.position[:2])
         avoid = ik.furniture_geoms + [g for k, g in ik.object_geoms.items() if k != o.id]
-        s = man.solve_ik(ik, TUCK, np.array(o.position) + [0, 0, man.PRE_GRASP_HEIGHT], rot, cfg, avoid)
+        s = arm_ik.solve_ik(ik, TUCK, np.array(o.position) + [0, 0, PRE_GRASP_HEIGHT], rot, cfg, avoid)
         n_ok += s.converged
     t_local = time.perf_counter() - t
     # whole-house model: same tasks and limits, every non-arm dof frozen
@@ -83,8 +83,8 @@ def ik_benchmark(world: World, n_targets: int = 40) -> None:
                   mink.CollisionAvoidanceLimit(m, [(arm_geoms, [fid])], minimum_distance_from_collisions=0.005,
                                                collision_detection_distance=0.08)]
         task = mink.FrameTask(GRIP_SITE, "site", position_cost=1.0, orientation_cost=0.3, lm_damping=1e-3)
-        rot = man._topdown_rotation((bx, by), o.position[:2])
-        target = np.array(o.position) + [0, 0, man.PRE_GRASP_HEIGHT]
+        rot = arm_ik.topdown_rotation((bx, by), o.position[:2])
+        target = np.array(o.position) + [0, 0, PRE_GRASP_HEIGHT]
         task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rot), target))
         for _ in range(cfg.ik_max_iters):
             p = conf.data.site_xpos[m.site(GRIP_SITE).id]

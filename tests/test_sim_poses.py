@@ -13,9 +13,10 @@ import pytest
 from interllm.config import SimConfig
 from interllm.core.actions import Action
 from interllm.scene.graph import Door, Furniture, Mission, Room, SceneGraph, SceneObject, Wall
-from interllm.sim import manipulator as man
-from interllm.sim.base_poses import BasePose, arm_reach, pose_radius, reach_poses
-from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, UPPER_ARM, WRIST_TO_GRIP
+from interllm.sim import arm_ik, trials
+from interllm.sim.base_poses import PRE_GRASP_HEIGHT, BasePose, arm_reach, pose_radius, reach_poses
+from interllm.sim.grasp_goals import GRASP_MIN_HEIGHT
+from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, TUCK, UPPER_ARM, WRIST_TO_GRIP
 from interllm.sim.world import World
 
 FRONT = (2.0, 2.25)  # a mug 0.1 m behind the counter's front edge (y = 2.15)
@@ -43,7 +44,7 @@ def reach_world(n_l: int = 20) -> World:
 def horizontal_reach(target_z: float) -> float:
     """[m] farthest base-to-target distance from which the wrist, held WRIST_TO_GRIP plus the
     pre-grasp height above a top-down target, is within the arm's two links of the shoulder."""
-    dz = target_z + man.PRE_GRASP_HEIGHT + WRIST_TO_GRIP - SHOULDER_HEIGHT
+    dz = target_z + PRE_GRASP_HEIGHT + WRIST_TO_GRIP - SHOULDER_HEIGHT
     return math.sqrt((UPPER_ARM + FOREARM) ** 2 - dz ** 2) + SHOULDER_FORWARD
 
 
@@ -59,7 +60,8 @@ def test_reach_poses_are_distinct_free_within_reach_and_driven_to():
     w = reach_world()
     act = Action("pickup", "counter_1", obj="mug_front")
     radius = 0.8  # the cap, sim.pose_reach: more cells than the arm reaches, for this geometric test
-    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg, radius)
+    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), action=act, n=20, cfg=w.cfg,
+                        radius=radius)
     assert len(poses) == 20 and all(p.free for p in poses)
     assert len({(p.x, p.y) for p in poses}) == 20  # without replacement
     for p in poses:
@@ -72,7 +74,8 @@ def test_reach_poses_are_distinct_free_within_reach_and_driven_to():
     for p in poses:
         assert p.drive >= math.hypot(p.x - prev[0], p.y - prev[1]) - 0.05
         prev = (p.x, p.y)
-    assert poses == reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), act, 20, w.cfg, radius)
+    assert poses == reach_poses(w.belief.presumed, w.belief.true, FRONT, (2.0, 1.5), action=act, n=20, cfg=w.cfg,
+                                radius=radius)
 
 
 def test_a_pose_in_a_pocket_is_never_drawn():
@@ -90,7 +93,7 @@ def test_a_pose_in_a_pocket_is_never_drawn():
     assert all(g.is_free(rc) for rc in patch)
     assert (np.hypot(pts[:, 0] - FRONT[0], pts[:, 1] - FRONT[1]) <= 0.8).any()
     act = Action("pickup", "counter_1", obj="mug_front")
-    poses = reach_poses(g, w.belief.true, FRONT, (2.0, 1.5), act, 50, w.cfg, 0.8)
+    poses = reach_poses(g, w.belief.true, FRONT, (2.0, 1.5), action=act, n=50, cfg=w.cfg, radius=0.8)
     drawn = {tuple(int(v) for v in g.world_to_cell(np.array([p.x, p.y]))) for p in poses if p.free}
     assert len(drawn) == 50 and not drawn & set(patch)
 
@@ -120,8 +123,8 @@ def test_an_object_at_the_back_of_a_deep_counter_succeeds_from_exactly_the_poses
 def test_trial_time_includes_the_drive_to_the_pose():
     w = reach_world()
     act = Action("pickup", "counter_1", obj="mug_front")
-    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, w.robot_pose[:2], act, w.cfg.n_l, w.cfg,
-                        pose_radius(w.cfg, 0.95))
+    poses = reach_poses(w.belief.presumed, w.belief.true, FRONT, w.robot_pose[:2], action=act, n=w.cfg.n_l,
+                        cfg=w.cfg, radius=pose_radius(w.cfg, 0.95))
     res = w.execute(act)
     assert [t.base_pose for t in res.trials] == [tuple(round(v, 6) for v in p.pose) for p in poses]
     for p, t in zip(poses, res.trials, strict=True):
@@ -151,16 +154,16 @@ def test_an_arm_through_a_wall_is_a_failed_trial():
     sg = two_rooms()
     o = sg.objects["cup_1"]
     half = np.asarray(o.size) / 2
-    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, man.GRASP_MIN_HEIGHT])
+    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
     target = np.asarray(o.position, dtype=float)
     pose = BasePose(3.7, 1.5, 0.0)
     outcomes = {}
     for protocol in ("window", "reach"):
         cfg = SimConfig(pose_protocol=protocol)
-        ik = man.build_local_ik(sg, "table_1", cfg)
-        trial, _ = man._trial(cfg, ik, pose, target, inside, ik.obstacles(but=("cup_1",)))
+        ik = arm_ik.build_local_ik(sg, "table_1", cfg)
+        trial, _ = trials.run_trial(cfg, ik, pose, target, inside, ik.obstacles(but=("cup_1",)))
         outcomes[protocol] = (trial.success, len(ik.structure_geoms))
-    assert outcomes["window"] == (True, 0)  # the old model: no walls, the arm passes through
+    assert outcomes["window"] == (True, 0)  # the window protocol's model: no walls, the arm passes through
     assert outcomes["reach"][0] is False and outcomes["reach"][1] >= 1
 
 
@@ -175,10 +178,10 @@ def _cup_trial(cfg: SimConfig, neighbour: bool):
         sg.objects["box_1"] = SceneObject("box_1", "box", "table_1", (2.17, 1.9, 0.9), (0.12, 0.12, 0.3))
     o = sg.objects["cup_1"]
     half = np.asarray(o.size) / 2
-    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, man.GRASP_MIN_HEIGHT])
-    ik = man.build_local_ik(sg, "table_1", cfg)
-    trial, sol = man._trial(cfg, ik, BasePose(2.0, 1.4, math.pi / 2), np.asarray(o.position, dtype=float), inside,
-                            ik.obstacles(but=("cup_1",)))
+    inside = (np.asarray(o.position) - half, np.asarray(o.position) + half + [0, 0, GRASP_MIN_HEIGHT])
+    ik = arm_ik.build_local_ik(sg, "table_1", cfg)
+    trial, sol = trials.run_trial(cfg, ik, BasePose(2.0, 1.4, math.pi / 2), np.asarray(o.position, dtype=float),
+                                  inside, ik.obstacles(but=("cup_1",)))
     return trial, sol, ik
 
 
@@ -188,19 +191,19 @@ def test_the_arm_slows_down_near_obstacles_so_clutter_costs_time():
     # without slowing, the arm time is the joint-space path length over joint_speed, exactly
     trial, (q_pre, q_grasp), ik = _cup_trial(constant, neighbour=False)
     assert trial.success
-    length = float(np.linalg.norm(q_pre - man.TUCK) + np.linalg.norm(q_grasp - q_pre))
+    length = float(np.linalg.norm(q_pre - TUCK) + np.linalg.norm(q_grasp - q_pre))
     assert trial.time == pytest.approx(length / constant.joint_speed + constant.grasp_time)
     # the cup alone on the table: nothing but the table near the arm, and the table does not slow it
     open_trial, _, _ = _cup_trial(slowing, neighbour=False)
     assert open_trial.time == pytest.approx(trial.time)
     # at the grasp the fingers are 2 cm above the table top: the table is within arm_slow_distance
     table = [ik.support_geom]
-    assert man.arm_clearance(ik, q_grasp, table, slowing.arm_slow_distance) == pytest.approx(0.045, abs=0.01)
-    assert man.arm_clearance(ik, man.TUCK, table, 0.1) == 0.1  # tucked: 0.14 m above the table edge
+    assert arm_ik.arm_clearance(ik, q_grasp, table, slowing.arm_slow_distance) == pytest.approx(0.045, abs=0.01)
+    assert arm_ik.arm_clearance(ik, TUCK, table, 0.1) == 0.1  # tucked: 0.14 m above the table edge
     # were it an obstacle, the descent would be slower than in free space, but never slower than
     # at the minimum speed throughout
     leg = float(np.linalg.norm(q_grasp - q_pre))
-    t_leg = man.arm_motion_time(slowing, ik, q_pre, q_grasp, table)
+    t_leg = arm_ik.arm_motion_time(slowing, ik, q_pre, q_grasp, table)
     assert leg / slowing.joint_speed < t_leg <= leg / (slowing.joint_speed * slowing.arm_min_speed) + 1e-9
     # the same cup with a tall box 3 cm beside it: still a success, and slower by more than 0.3 s
     cluttered, _, _ = _cup_trial(slowing, neighbour=True)

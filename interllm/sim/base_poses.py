@@ -1,7 +1,7 @@
 """Where the robot stands for each of the N_l trials of a manipulation (paper §IV-B: "5 free
 locations around the sofa based on the occupancy grid map"), by ``sim.pose_protocol``:
 
-``window`` (the protocol of the committed results): N_l cells drawn *with* replacement from the
+``window``: N_l cells drawn *with* replacement from the
 robot's map's free cells at most ``POSE_RING`` beyond the robot radius from the furniture's
 footprint and at most ``LOCAL_WINDOW`` farther from the target than the closest such cell. The
 window is so small that a pickup succeeds from all poses or from none, and moving between poses
@@ -9,10 +9,12 @@ costs nothing.
 
 ``reach`` (the paper's): N_l *distinct* cells drawn without replacement from the cells that are
 free on the true grid *and* on the robot's map (for a ``sim.footprint_radius`` larger than the
-map's radius: with the whole footprint clear of obstacles), whose centre lies within ``pose_radius`` [m]
-(horizontal) of the target — the arm's reach at the target's height plus ``sim.pose_margin``, and that the robot can drive to from where it stands over such cells
+map's radius: with the whole footprint clear of obstacles), whose centre lies within
+``pose_radius`` [m] (horizontal) of the target — the arm's reach at the target's height plus
+``sim.pose_margin`` — and that the robot can drive to from where it stands over such cells
 without leaving the furniture's neighbourhood (so no pose strands the robot in a pocket: it came
-by a path and can go back by it). The poses are visited in a nearest-neighbour tour from the robot's position;
+by a path and can go back by it). The poses are visited in a nearest-neighbour tour from the
+robot's position;
 ``BasePose.drive`` [m] is the path length on the robot's map from the previous pose, which the
 trial's time includes. Where fewer than N_l cells qualify, the missing trials are failures
 (``BasePose.free`` False: a cramped spot is a hard spot).
@@ -40,7 +42,7 @@ from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, UPPER
 
 POSE_RING = 0.30  # [m] window protocol: poses at most this far beyond robot_radius from the footprint
 LOCAL_WINDOW = 0.15  # [m] window protocol: at most this much farther from the target than the closest
-PRE_GRASP_HEIGHT = 0.10  # [m] the pre-grasp pose above the target (sim/manipulator.py uses this one)
+PRE_GRASP_HEIGHT = 0.10  # [m] the pre-grasp pose above the target (sim/trials.py uses this one)
 NEIGHBOURHOOD_MARGIN = 1.0  # [m] reach protocol: the drive between poses stays this close to the reach disc
 __all__ = ["POSE_PROTOCOLS", "BasePose", "sample_base_poses", "window_poses", "reach_poses"]
 
@@ -67,12 +69,14 @@ def _facing(x: float, y: float, target_xy, drive: float = 0.0, free: bool = True
 
 
 def sample_base_poses(cfg: SimConfig, presumed: OccupancyGrid, true: OccupancyGrid, furniture: Furniture,
-                      target, robot_xy, action: Action, n: int) -> list[BasePose]:
-    """``n`` base poses for a manipulation of ``furniture`` at ``target`` (x, y, z) [m] by
-    ``cfg.pose_protocol`` (module doc); [] when the window protocol finds no free cell."""
+                      target, *, robot_xy, action: Action, n: int) -> list[BasePose]:
+    """``n`` base poses for ``action`` at ``furniture`` with the gripper target ``target`` (x, y, z) [m]
+    and the robot at ``robot_xy`` [m], by ``cfg.pose_protocol`` (module doc); [] when the window
+    protocol finds no free cell."""
     if cfg.pose_protocol == "window":
         return window_poses(presumed, furniture, target[:2], action, n, cfg)
-    return reach_poses(presumed, true, target[:2], robot_xy, action, n, cfg, pose_radius(cfg, float(target[2])))
+    return reach_poses(presumed, true, target[:2], robot_xy, action=action, n=n, cfg=cfg,
+                       radius=pose_radius(cfg, float(target[2])))
 
 
 def arm_reach(target_z: float) -> float:
@@ -121,9 +125,10 @@ def _cell_window(grid: OccupancyGrid, box) -> tuple[tuple[int, int], tuple[int, 
             (min(grid.shape[0], int(hi[0]) + 1), min(grid.shape[1], int(hi[1]) + 1)))
 
 
-def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_xy, action: Action, n: int,
+def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_xy, *, action: Action, n: int,
                 cfg: SimConfig, radius: float) -> list[BasePose]:
-    """The reach protocol (module doc) with base centres at most ``radius`` [m] from the target;
+    """The reach protocol (module doc) on the robot's map ``presumed`` and the ``true`` grid, from
+    the robot at ``robot_xy`` [m], with base centres at most ``radius`` [m] from ``target_xy``;
     always ``n`` poses, the unfilled ones with ``free`` False."""
     tx, ty = float(target_xy[0]), float(target_xy[1])
     rx, ry = float(robot_xy[0]), float(robot_xy[1])

@@ -79,97 +79,148 @@ class Navigator:
 
     def navigate(self, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, clock: float,
                  action: Action) -> ActionResult:
-        """Drive to ``action.furniture`` from the current base pose, starting at ``clock`` [s]."""
-        return _drive(self.cfg, self.resolution, physics, belief, scene, clock, action)
+        """Drive to ``action.furniture`` from the current base pose, starting at ``clock`` [s]:
+        plan a path on the belief map, follow it, and on a contact learn, back off and plan again."""
+        if action.kind != "navigate":
+            raise ValueError(f"Navigator.navigate got a {action.kind!r} action: {action}")
+        why = _invalid_target(scene, action)
+        if why:
+            return _fail(action, why)
+        cfg = self.cfg
+        goal = belief.anchor(action.furniture)
+        drive = _Drive.start(cfg, physics, clock)
+        presumed = None
+        last_hit = ("", "")
+        reason = ""
+        success = False
+        while True:
+            path = belief.search.path((drive.x, drive.y), goal)  # plan
+            if presumed is None:
+                presumed = np.zeros((0, 2)) if path is None else path.copy()
+            if path is None:
+                where = f" (last at {last_hit[0]} {last_hit[1]})" if drive.collisions else ""
+                reason = (f"{action}: no collision-free path to {action.furniture} on the robot's map after "
+                          f"{drive.collisions} collisions{where}")
+                break
+            hit, leg = drive.follow(path)  # step
+            if hit is None:
+                success = True
+                break
+            last_hit = drive.recover(hit, leg, belief, self.resolution)  # recover
+            if drive.collisions > cfg.max_nav_replans:
+                reason = (f"{action}: blocked at {last_hit[0]} {last_hit[1]} after {drive.collisions} collisions "
+                          f"(max_nav_replans={cfg.max_nav_replans})")
+                break
+        return drive.result(action, success, presumed, reason)
 
 
-def _drive(cfg: SimConfig, res: float, physics: MujocoWorld, belief: BeliefMap, scene: SceneGraph, t0: float,
-           action: Action) -> ActionResult:
-    if action.kind != "navigate":
-        raise ValueError(f"Navigator.navigate got a {action.kind!r} action: {action}")
+def _invalid_target(scene: SceneGraph, action: Action) -> str:
+    """Why ``action`` cannot be driven to: an unknown furniture or a wrong room ("" when it can)."""
     if action.furniture not in scene.furniture:
-        return _fail(action, f"{action}: unknown furniture {action.furniture!r}; valid furniture: "
-                             f"{sorted(scene.furniture)}")
+        return f"{action}: unknown furniture {action.furniture!r}; valid furniture: {sorted(scene.furniture)}"
     fur = scene.furniture[action.furniture]
     if action.room is not None and action.room != fur.room:
-        return _fail(action, f"{action}: {action.furniture} is in room {fur.room}, not {action.room}")
-    goal = belief.anchor(action.furniture)
-    x, y, yaw = physics.robot_pose
-    distance = 0.0
-    n_turns = 0
-    collisions = 0
-    driven: list[tuple[float, float]] = [(x, y)]
-    samples = []
+        return f"{action}: {action.furniture} is in room {fur.room}, not {action.room}"
+    return ""
 
-    def now() -> float:
-        return t0 + distance / cfg.base_speed + n_turns * cfg.turn / cfg.turn_speed + collisions * cfg.recovery_time
 
-    physics.set_base(x, y, yaw)
-    physics.forward()
-    samples.append(physics.sample(now()))
-    # what the base already touches where it stands (it was put there, it did not drive into it)
-    # is no collision until the base has come free of it
-    touching = {gid for gid, _, _, _ in physics.base_contacts()}
-    presumed = None
-    last_hit = ("", "")
-    reason = ""
-    success = False
-    while True:
-        path = belief.search.path((x, y), goal)
-        if presumed is None:
-            presumed = np.zeros((0, 2)) if path is None else path.copy()
-        if path is None:
-            where = f" (last at {last_hit[0]} {last_hit[1]})" if collisions else ""
-            reason = (f"{action}: no collision-free path to {action.furniture} on the robot's map after "
-                      f"{collisions} collisions{where}")
-            break
+class _Drive:
+    """One navigate action as it runs: the base pose x [m], y [m], yaw [rad], what is measured
+    (distance [m], 45° turns, collisions), the driven points and the trajectory samples."""
+
+    def __init__(self, cfg: SimConfig, physics: MujocoWorld, t0: float) -> None:
+        self.cfg, self.physics, self.t0 = cfg, physics, t0
+        self.x, self.y, self.yaw = physics.robot_pose
+        self.distance = 0.0
+        self.n_turns = 0
+        self.collisions = 0
+        self.driven: list[tuple[float, float]] = [(self.x, self.y)]
+        self.samples: list = []
+        self.touching: set[int] = set()
+
+    @classmethod
+    def start(cls, cfg: SimConfig, physics: MujocoWorld, t0: float) -> _Drive:
+        """Start at the current base pose at ``t0`` [s]. What the base already touches where it
+        stands (it was put there, it did not drive into it) is no collision until the base has
+        come free of it."""
+        drive = cls(cfg, physics, t0)
+        drive._put()
+        drive.touching = {gid for gid, _, _, _ in physics.base_contacts()}
+        return drive
+
+    def now(self) -> float:
+        """[s] the mission clock: t0 + the time measured so far."""
+        cfg = self.cfg
+        return (self.t0 + self.distance / cfg.base_speed + self.n_turns * cfg.turn / cfg.turn_speed
+                + self.collisions * cfg.recovery_time)
+
+    def _put(self) -> None:
+        """Set the base pose in MuJoCo and take a trajectory sample."""
+        self.physics.set_base(self.x, self.y, self.yaw)
+        self.physics.forward()
+        self.samples.append(self.physics.sample(self.now()))
+
+    def follow(self, path) -> tuple[list | None, list[tuple[float, float]]]:
+        """Drive along ``path`` [N, 2] [m]; returns (the new contacts that stopped it, or None at
+        the end of the path; the points of this leg, from where it started)."""
         targets = list(path)
-        if targets and math.hypot(targets[0][0] - x, targets[0][1] - y) <= _EPS:
+        if targets and math.hypot(targets[0][0] - self.x, targets[0][1] - self.y) <= _EPS:
             targets = targets[1:]
-        leg: list[tuple[float, float]] = [(x, y)]
-        hit = None
+        leg: list[tuple[float, float]] = [(self.x, self.y)]
         for wp in targets:
-            wx, wy = float(wp[0]), float(wp[1])
-            dx, dy = wx - x, wy - y
-            seg = math.hypot(dx, dy)
-            if seg < _EPS:
-                continue
-            heading = math.atan2(dy, dx)
-            dturn = abs(_wrap(heading - yaw))
-            k = int(math.ceil(dturn / cfg.turn - 1e-6)) if dturn > 1e-6 else 0
-            if k:
-                n_turns += k
-                yaw = heading
-                physics.set_base(x, y, yaw)
-                physics.forward()
-                samples.append(physics.sample(now()))
-            yaw = heading
-            nsub = max(1, int(math.ceil(seg / cfg.step - 1e-9)))
-            sx, sy = x, y
-            for i in range(1, nsub + 1):
-                px, py = sx + dx * i / nsub, sy + dy * i / nsub
-                physics.set_base(px, py, yaw)
-                physics.forward()
-                distance += seg / nsub
-                x, y = px, py
-                driven.append((x, y))
-                leg.append((x, y))
-                contacts = physics.base_contacts()
-                if touching:
-                    if not any(c[0] in touching for c in contacts):
-                        touching = set()  # free of what it stood against: every contact counts now
-                    contacts = [c for c in contacts if c[0] not in touching]
-                if contacts:
-                    hit = contacts
-                    break
-                samples.append(physics.sample(now()))
+            hit = self._drive_to(float(wp[0]), float(wp[1]), leg)
             if hit:
-                break
-        if hit is None:
-            success = True
-            break
-        collisions += 1
-        # learn: the contact area (and a door leaf's footprint) is blocked
+                return hit, leg
+        return None, leg
+
+    def _drive_to(self, wx: float, wy: float, leg: list[tuple[float, float]]) -> list | None:
+        """Turn towards (wx, wy) [m] in 45° controls, then move there in ``sim.step`` controls,
+        querying contacts after each; returns the new contacts that stopped it, or None."""
+        cfg, physics = self.cfg, self.physics
+        dx, dy = wx - self.x, wy - self.y
+        seg = math.hypot(dx, dy)
+        if seg < _EPS:
+            return None
+        heading = math.atan2(dy, dx)
+        dturn = abs(_wrap(heading - self.yaw))
+        k = int(math.ceil(dturn / cfg.turn - 1e-6)) if dturn > 1e-6 else 0
+        if k:
+            self.n_turns += k
+            self.yaw = heading
+            self._put()
+        self.yaw = heading
+        nsub = max(1, int(math.ceil(seg / cfg.step - 1e-9)))
+        sx, sy = self.x, self.y
+        for i in range(1, nsub + 1):
+            px, py = sx + dx * i / nsub, sy + dy * i / nsub
+            physics.set_base(px, py, self.yaw)
+            physics.forward()
+            self.distance += seg / nsub
+            self.x, self.y = px, py
+            self.driven.append((px, py))
+            leg.append((px, py))
+            contacts = self._new_contacts()
+            if contacts:
+                return contacts
+            self.samples.append(physics.sample(self.now()))
+        return None
+
+    def _new_contacts(self) -> list:
+        """The base's contacts here, less those it stood against at the start while it is not yet
+        free of them."""
+        contacts = self.physics.base_contacts()
+        if self.touching:
+            if not any(c[0] in self.touching for c in contacts):
+                self.touching = set()  # free of what it stood against: every contact counts now
+            contacts = [c for c in contacts if c[0] not in self.touching]
+        return contacts
+
+    def recover(self, hit: list, leg: list[tuple[float, float]], belief: BeliefMap, res: float) -> tuple[str, str]:
+        """A collision: count it, block the contact area (and a door leaf's footprint) on the
+        belief map, back off ``sim.backoff`` [m] along ``leg``; returns (kind, scene id) of what was
+        hit, a door leaf first."""
+        cfg, physics = self.cfg, self.physics
+        self.collisions += 1
         inflate = cfg.robot_radius + res
         doors = [h for h in hit if h[2] == "door"]
         for gid, pt, kind, _sid in hit:
@@ -178,22 +229,22 @@ def _drive(cfg: SimConfig, res: float, physics: MujocoWorld, belief: BeliefMap, 
                 x0, y0, x1, y1 = physics.geom_footprint(gid)
                 belief.block_box(x0 - inflate, y0 - inflate, x1 + inflate, y1 + inflate)
         last_hit = (doors[0][2], doors[0][3]) if doors else (hit[0][2], hit[0][3])
-        samples.append(physics.sample(now()))
-        back, done = _walk_back(leg, cfg.backoff)
+        self.samples.append(physics.sample(self.now()))
+        back, _ = _walk_back(leg, cfg.backoff)
         for bx, by in back:
-            distance += math.hypot(bx - x, by - y)
-            x, y = bx, by
-            driven.append((x, y))
-            physics.set_base(x, y, yaw)
-            physics.forward()
-            samples.append(physics.sample(now()))
-        if collisions > cfg.max_nav_replans:
-            reason = (f"{action}: blocked at {last_hit[0]} {last_hit[1]} after {collisions} collisions "
-                      f"(max_nav_replans={cfg.max_nav_replans})")
-            break
-    time = distance / cfg.base_speed + n_turns * cfg.turn / cfg.turn_speed + collisions * cfg.recovery_time
-    return ActionResult(
-        action=action, success=success, cost=nav_cost(collisions, time, distance, cfg.gamma_nav), time=time,
-        collisions=collisions, distance=distance, presumed_path=presumed,
-        driven_path=np.asarray(driven, dtype=float), reason=reason,
-        trajectory=physics.make_trajectory(samples))
+            self.distance += math.hypot(bx - self.x, by - self.y)
+            self.x, self.y = bx, by
+            self.driven.append((self.x, self.y))
+            self._put()
+        return last_hit
+
+    def result(self, action: Action, success: bool, presumed, reason: str) -> ActionResult:
+        """The navigate result: time t [s] and cost c_nav from what was measured (module doc)."""
+        cfg = self.cfg
+        time = (self.distance / cfg.base_speed + self.n_turns * cfg.turn / cfg.turn_speed
+                + self.collisions * cfg.recovery_time)
+        return ActionResult(
+            action=action, success=success, cost=nav_cost(self.collisions, time, self.distance, cfg.gamma_nav),
+            time=time, collisions=self.collisions, distance=self.distance, presumed_path=presumed,
+            driven_path=np.asarray(self.driven, dtype=float), reason=reason,
+            trajectory=self.physics.make_trajectory(self.samples))

@@ -11,7 +11,7 @@ judged by the simulator's own measurement, and how the missions' slots are fille
 - the targets' capacity: per target, the fulfillable instances that place on it (smallest
   footprint first, then highest pickup success rate, then id) are placed one after the other in a
   scratch copy of the scene, each at the spot its place measurement uses
-  (``sim.manipulator.place_spot``), until a place fails or k are on it; the command's capacity is
+  (``sim.grasp_goals.place_spot``), until a place fails or k are on it; the command's capacity is
   the sum over its targets, at most k. Approximations: the capacity is that of the smallest
   instances (a planner taking larger ones may fit fewer), the matching of a mission's slots to
   instances ignores sizes, and what an earlier command of the mission left on a shared target is
@@ -35,7 +35,7 @@ from interllm.scene.catalog import Catalog, CommandSpec, load_catalog
 from interllm.scene.graph import Mission, SceneGraph
 from interllm.scene.grid import OccupancyGrid
 from interllm.scene.missions import CommandFill, Fulfillable
-from interllm.sim.manipulator import place_spot
+from interllm.sim.grasp_goals import place_spot
 from interllm.sim.world import World
 
 FEASIBILITY_SCHEMA_VERSION = 1
