@@ -8,13 +8,9 @@ the committed LLM cache in replay mode, so no model runs: the time is planning +
 
 - exec: the mission with a recorder that only keeps the calls (planning + MuJoCo, no logging), in
   one World per scene reset for each run, as the missions stage keeps it;
-- log, three ways, each writing exactly those calls to an MCAP (McapRecorder with the robot
-  model: /tf with the arm's link frames, /joint_states, /scene updates, paths, actions, LLM calls,
-  metrics); the overhead is log / exec (goal <= 10%):
-  - foxglove-sdk: Foxglove's SDK (``McapRecorder(writer="foxglove")``), the default writer;
-  - mcap: the mcap package with the recorder's batched message path (``writer="mcap"``);
-  - add_message: the same through mcap's per-message ``Writer.add_message`` (same bytes as mcap,
-    checked here);
+- log: writing exactly those calls to an MCAP (McapRecorder with the robot model: /tf with the
+  arm's link frames, /joint_states, /scene updates, paths, actions, LLM calls, metrics); the
+  overhead is log / exec (goal <= 10%);
 - end to end: the whole mission with the McapRecorder against one with NullRecorder (noisier:
   two full runs on a shared machine).
 Times are CPU seconds of this process (``time.process_time``, best of N), so that other tenants
@@ -43,7 +39,7 @@ from omegaconf import OmegaConf  # noqa: E402
 from interllm.llm import make_client  # noqa: E402
 from interllm.planners.candidates import generate_initial_candidates  # noqa: E402
 from interllm.planners.runner import run_mission  # noqa: E402
-from interllm.record import McapRecorder, NullRecorder, batch, read_run, replay  # noqa: E402
+from interllm.record import McapRecorder, NullRecorder, replay  # noqa: E402
 from interllm.scene import generate_missions, generate_scene  # noqa: E402
 from interllm.scene.grid import rasterize  # noqa: E402
 from interllm.sim.kinematics import RobotKinematics  # noqa: E402
@@ -73,23 +69,13 @@ def cpu_time() -> float:
     return time.process_time()
 
 
-def _per_message(self, rows) -> None:
-    for ch, t, data, seq in rows:
-        self.add_message(channel_id=ch, log_time=t, data=data, publish_time=t, sequence=seq)
-
-
-def write(path: Path, calls, scene, grids, robot, per_message: bool = False, writer: str = "mcap") -> float:
-    fast = batch.BatchWriter.add_messages
-    if per_message:
-        batch.BatchWriter.add_messages = _per_message
-    try:
-        t = cpu_time()
-        with McapRecorder(path, scene, {"bench": "1"}, grids=grids, robot=robot, writer=writer) as r:
-            for name, args in calls:
-                getattr(r, name)(*args)
-        return cpu_time() - t
-    finally:
-        batch.BatchWriter.add_messages = fast
+def write(path: Path, calls, scene, grids, robot) -> float:
+    """CPU seconds to write ``calls`` to an MCAP at ``path``."""
+    t = cpu_time()
+    with McapRecorder(path, scene, {"bench": "1"}, grids=grids, robot=robot) as r:
+        for name, args in calls:
+            getattr(r, name)(*args)
+    return cpu_time() - t
 
 
 def main() -> None:
@@ -111,41 +97,33 @@ def main() -> None:
         return shared
     print(f"scene {scene.id}, mission {mission.id} ({len(mission.commands)} commands), replayed LLM cache")
     print("CPU seconds, best of", args.repeats, "(log columns: seconds, then overhead = log / exec)")
-    print(f"{'planner':<11}{'actions':>8}{'samples':>8}{'sim [s]':>9}{'exec [s]':>9}{'foxglove-sdk':>13}{'':>7}"
-          f"{'mcap':>8}{'':>7}{'add_message':>12}{'':>7}{'end-to-end':>11}{'x real time':>12}{'MB':>6}"
-          f"{'replay [s]':>11}")
+    print(f"{'planner':<11}{'actions':>8}{'samples':>8}{'sim [s]':>9}{'exec [s]':>9}{'log':>8}{'':>7}"
+          f"{'end-to-end':>11}{'x real time':>12}{'MB':>6}{'replay [s]':>11}")
     with tempfile.TemporaryDirectory() as tmp:
         for planner in cfg.planner.names:
-            best = {"exec": float("inf"), "log": float("inf"), "slow": float("inf"), "sdk": float("inf"),
-                    "null": float("inf"), "mcap": float("inf")}
+            best = {"exec": float("inf"), "log": float("inf"), "null": float("inf"), "mcap": float("inf")}
             for i in range(args.repeats):
                 cl = CallLog()
                 t = cpu_time()
-                rec = run_mission(planner, world(), mission, cands, client, cfg, cl).to_dict()
+                rec = run_mission(planner, world(), mission, cands, client, cfg, recorder=cl).to_dict()
                 best["exec"] = min(best["exec"], cpu_time() - t)
-                fast_path, slow_path = Path(tmp) / f"{planner}_{i}.mcap", Path(tmp) / f"{planner}_{i}_slow.mcap"
-                best["log"] = min(best["log"], write(fast_path, cl.calls, scene, grids, robot))
-                best["slow"] = min(best["slow"], write(slow_path, cl.calls, scene, grids, robot, per_message=True))
-                assert fast_path.read_bytes() == slow_path.read_bytes(), "batched and per-message files differ"
-                sdk_path = Path(tmp) / f"{planner}_{i}_sdk.mcap"
-                best["sdk"] = min(best["sdk"], write(sdk_path, cl.calls, scene, grids, robot, writer="foxglove"))
-                assert len(read_run(sdk_path).actions) == len(read_run(fast_path).actions), "the writers differ"
+                log_path = Path(tmp) / f"{planner}_{i}.mcap"
+                best["log"] = min(best["log"], write(log_path, cl.calls, scene, grids, robot))
                 t = cpu_time()
-                run_mission(planner, world(), mission, cands, client, cfg, NullRecorder())
+                run_mission(planner, world(), mission, cands, client, cfg, recorder=NullRecorder())
                 best["null"] = min(best["null"], cpu_time() - t)
                 t = cpu_time()
                 with McapRecorder(Path(tmp) / f"{planner}_e2e.mcap", scene, {"bench": "1"}, grids=grids,
                                   robot=robot) as r:
-                    run_mission(planner, world(), mission, cands, client, cfg, r)
+                    run_mission(planner, world(), mission, cands, client, cfg, recorder=r)
                 best["mcap"] = min(best["mcap"], cpu_time() - t)
             n = sum(len(c["actions"]) for c in rec["commands"])
             samples = sum(a[0].trajectory.t.size for name, a in cl.calls if name == "action" and a[0].trajectory)
-            size = sdk_path.stat().st_size / 1e6
+            size = log_path.stat().st_size / 1e6
             t = time.perf_counter()
-            replay(sdk_path, save=str(Path(tmp) / f"{planner}.rrd"))
+            replay(log_path, save=str(Path(tmp) / f"{planner}.rrd"))
             t_replay = time.perf_counter() - t
-            logs = "".join(f"{best[k]:>{w}.3f}{best[k] / best['exec']:>7.1%}"
-                           for k, w in (("sdk", 13), ("log", 8), ("slow", 12)))
+            logs = f"{best['log']:>8.3f}{best['log'] / best['exec']:>7.1%}"
             print(f"{planner:<11}{n:>8}{samples:>8}{rec['sim_time']:>9.1f}{best['exec']:>9.2f}{logs}"
                   f"{(best['mcap'] - best['null']) / best['null']:>11.1%}{rec['sim_time'] / best['exec']:>12.0f}"
                   f"{size:>6.2f}{t_replay:>11.2f}")

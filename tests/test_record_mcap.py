@@ -19,11 +19,11 @@ from interllm.record import ACTION_SCHEMA, McapRecorder, read_run
 N, S = 6, 40  # actions, samples per trajectory
 
 
-@pytest.fixture(scope="module", params=["mcap", "foxglove"])
-def run_file(tmp_path_factory, request):
-    """The same run written by each writer (the mcap package's, or Foxglove's SDK)."""
-    path = tmp_path_factory.mktemp(f"rec_{request.param}") / "m000.mcap"
-    acts, extra = write_run(path, N, S, writer=request.param)
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    """One run of N actions with S trajectory samples each."""
+    path = tmp_path_factory.mktemp("rec") / "m000.mcap"
+    acts, extra = write_run(path, N, S)
     return path, acts, extra
 
 
@@ -154,17 +154,15 @@ def test_scene_update_cubes_by_hand(run_file):
     assert g.column_count * (len(g.data) // g.row_stride) == len(g.data)
 
 
-@pytest.mark.parametrize("writer", ["mcap", "foxglove"])
-def test_deterministic_bytes(tmp_path, writer):
-    write_run(tmp_path / "a.mcap", 3, 20, writer=writer)
-    write_run(tmp_path / "b.mcap", 3, 20, writer=writer)
+def test_deterministic_bytes(tmp_path):
+    write_run(tmp_path / "a.mcap", 3, 20)
+    write_run(tmp_path / "b.mcap", 3, 20)
     assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
 
 
-@pytest.mark.parametrize("writer", ["mcap", "foxglove"])
-def test_truncated_prefixes_read_up_to_last_complete_chunk(tmp_path, writer):
+def test_truncated_prefixes_read_up_to_last_complete_chunk(tmp_path):
     path = tmp_path / "full.mcap"
-    acts, _ = write_run(path, N, S, chunk_size=2048, writer=writer)
+    acts, _ = write_run(path, N, S, chunk_size=2048)
     data = path.read_bytes()
     full = [r.to_record() for r, _ in acts]
     n_seen = []
@@ -240,45 +238,6 @@ def test_a_log_from_an_older_version_is_named_as_such_not_as_truncated(tmp_path,
     with pytest.raises(RunLogFormatError, match=r"old\.mcap: /joint_states at t=2\.000 s is JSON.*"
                                                 r"dvc repro --force missions"):
         read_run(path)
-
-
-@pytest.mark.parametrize("chunk_size", [1024, 256 * 1024])
-def test_batch_message_path_writes_the_same_bytes_as_add_message(chunk_size):
-    """The recorder's fast path (_BatchWriter.add_messages) against mcap's own add_message."""
-    import io
-
-    from mcap.writer import CompressionType, Writer
-
-    from interllm.record.batch import BatchWriter as _BatchWriter
-
-    rng = np.random.default_rng(0)
-    rows = [(1 + int(rng.integers(0, 2)), int(t), rng.bytes(int(rng.integers(0, 300))), k)
-            for k, t in enumerate(np.sort(rng.integers(0, 10**9, 500)))]
-    rows[7] = (rows[7][0], rows[3][1], rows[7][2], rows[7][3])  # an out-of-order time
-    out = []
-    for batch in (False, True):
-        f = io.BytesIO()
-        w = _BatchWriter(f, chunk_size=chunk_size, compression=CompressionType.ZSTD)
-        assert isinstance(w, Writer)
-        w.start(profile="", library="test")
-        sid = w.register_schema("s", "jsonschema", b"{}")
-        for topic in ("/a", "/b"):
-            w.register_channel(topic, "json", sid)
-        if batch:
-            w.add_messages(rows[:250])
-            w.flush()
-            w.add_messages(rows[250:])
-        else:
-            for i, (ch, t, data, seq) in enumerate(rows):
-                if i == 250:
-                    w.flush()
-                w.add_message(channel_id=ch, log_time=t, data=data, publish_time=t, sequence=seq)
-        w.finish()
-        out.append(f.getvalue())
-    assert out[0] == out[1]
-    got = [(ch.id, m.log_time, m.data, m.sequence)
-           for _, ch, m in make_reader(io.BytesIO(out[1])).iter_messages(log_time_order=False)]
-    assert got == rows
 
 
 def test_joint_states_are_the_canonical_protobuf_of_each_sample(run_file):

@@ -2,9 +2,9 @@
 
 Modules: ``api`` (the Recorder protocol), ``topics`` (the run log's topics, schemas and JSON
 encoding), ``foxglove`` (scene, grids and paths as Foxglove messages), ``wire`` (protobuf bytes
-of many messages per numpy call: /joint_states, paths), ``batch`` (the batched MCAP message path),
-``sdk_writer`` (the same through foxglove-sdk), ``recorder`` (``McapRecorder``), ``reader``,
-``replay``, ``figures``.
+of many messages per numpy call: /joint_states, paths), ``sdk_writer`` (the MCAP file through
+foxglove-sdk), ``recorder`` (``McapRecorder``), ``reader``, ``rerun_log`` (a run log as rerun
+entities), ``replay``, ``figures``.
 ``McapRecorder`` writes one ``.mcap`` per mission run (Foxglove schemas + JSON planner events),
 ``read_run`` reads it back (also a killed run's truncated ``.mcap.partial``), ``replay`` /
 ``replay_main`` turn runs into rerun recordings (rerun is imported only when replaying).

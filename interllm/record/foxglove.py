@@ -95,8 +95,7 @@ class ObjectsUpdates:
     A grasp or release moves one object, so each object's entity is serialized once per state
     and kept; an update is its deletion, then per object the entity's timestamp (field 1, the
     only part that changes) and the kept bytes: the same bytes as building the whole SceneUpdate
-    through the generated classes (``tests/test_record_wire.py``), in half the time on the SayPlan
-    mission of ``benchmarks/bench_mission.py``."""
+    through the generated classes (``tests/test_record_wire.py``)."""
 
     def __init__(self, objects: dict[str, Any], frames: set[str]) -> None:
         self._objects = objects

@@ -35,16 +35,14 @@ from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.well_known import MessageEncoding, SchemaEncoding
-from mcap.writer import CompressionType
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from interllm.core import jsonfmt
 from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
 from interllm.core.results import ActionResult, Trajectory
 from interllm.record import wire
-from interllm.record.batch import BatchWriter
 from interllm.record.foxglove import ObjectsUpdates, grid_message, path_poses, scene_update
-from interllm.record.sdk_writer import FoxgloveSdkWriter
+from interllm.record.sdk_writer import COMPRESSIONS, FoxgloveSdkWriter
 from interllm.record.topics import (
     ACTION_SCHEMA,
     ACTIONS_TOPIC,
@@ -69,14 +67,11 @@ from interllm.record.topics import (
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
 
-COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
-WRITERS = ("mcap", "foxglove")
-
 
 @functools.cache
 def _protobuf_schema(message_type: type) -> bytes:
     """The MCAP schema data of a protobuf message type (its FileDescriptorSet, with the files it
-    imports), built once per process: building it took a millisecond per channel and run."""
+    imports), built once per process."""
     return build_file_descriptor_set(message_type).SerializeToString()
 
 
@@ -89,11 +84,8 @@ class McapRecorder:
         non-string values are stored as canonical JSON strings.
     grids: occupancy grids by name (``/grid/<name>``), e.g. {"presumed": ..., "true": ...}.
     joint_names: arm joint names for ``/joint_states`` when a Trajectory carries none.
-    chunk_size: uncompressed chunk size limit [bytes]; compression: "zstd" | "lz4" | "none".
-    writer: "foxglove" (Foxglove's SDK, ``record/sdk_writer.py``: the default, faster in 8 of 9
-        planner runs of ``benchmarks/bench_mission.py``, by 0.5-3.7 points of overhead) or "mcap"
-        (the mcap package with the batched message path, ``record/batch.py``); the same messages
-        either way.
+    chunk_size: uncompressed chunk size limit [bytes]; compression: "zstd" | "lz4" | "none". The file
+        is written through Foxglove's SDK (``record/sdk_writer.py``).
     robot: optional robot model (``interllm.sim.kinematics.RobotKinematics`` or anything with
         ``joint_names``, ``chain`` [(parent, child)], ``link_poses(joints[N, n]) -> (xyz[N, L, 3],
         quat_xyzw[N, L, 4])`` and ``visuals()``): arm link frames on ``/tf`` and the robot's shape on
@@ -102,12 +94,9 @@ class McapRecorder:
 
     def __init__(self, path: str | os.PathLike, scene: SceneGraph, metadata: dict[str, Any] | None = None,
                  grids: dict[str, OccupancyGrid] | None = None, joint_names: Sequence[str] = (), *,
-                 chunk_size: int = 256 * 1024, compression: str = "zstd", robot: Any = None,
-                 writer: str = "foxglove") -> None:
+                 chunk_size: int = 256 * 1024, compression: str = "zstd", robot: Any = None) -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression {compression!r} is not valid; choose one of {list(COMPRESSIONS)}")
-        if writer not in WRITERS:
-            raise ValueError(f"writer {writer!r} is not valid; choose one of {list(WRITERS)}")
         if chunk_size < 1024:
             raise ValueError(f"chunk_size must be >= 1024 bytes, got {chunk_size}")
         self.path = Path(path)
@@ -121,17 +110,10 @@ class McapRecorder:
                               for o in scene.objects.values()}
         self._frames = {WORLD_FRAME, BASE_FRAME, *(c for _, c in robot.chain)} if robot is not None \
             else {WORLD_FRAME, BASE_FRAME}
-        if writer == "foxglove":
-            self._file = None
-            self._w = FoxgloveSdkWriter(self.partial_path, chunk_size, compression)
-        else:
-            self._file = open(self.partial_path, "wb")
-            self._w = BatchWriter(self._file, chunk_size=chunk_size, compression=COMPRESSIONS[compression])
-        self._w.start(profile="", library="interllm.record")
+        self._w = FoxgloveSdkWriter(self.partial_path, chunk_size, compression)
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._last_ns: dict[int, int] = {}
-        self._seq: dict[int, int] = {}
         self._n_actions = 0
         self._tf_templates: dict[tuple[bool, bool], tuple[FrameTransforms, list[tuple[Any, Any, Any]]]] = {}
         self._link_memo: dict[bytes, tuple[list, list]] = {}
@@ -140,7 +122,7 @@ class McapRecorder:
 
         self._w.add_metadata("run", {str(k): metadata_str(v) for k, v in sorted((metadata or {}).items())})
         self._w.add_attachment(create_time=0, log_time=0, name="scene.json", media_type="application/json",
-                               data=jsonfmt.compact(scene.to_dict()).encode("utf-8"))  # C encoder: 3x to_json's
+                               data=jsonfmt.compact(scene.to_dict()).encode("utf-8"))
         self._write_proto(SCENE_TOPIC, scene_update(scene, robot.visuals() if robot is not None else ()), 0)
         self._objects_updates = ObjectsUpdates(self._objects, self._frames)
         self._write_objects(0)
@@ -174,9 +156,7 @@ class McapRecorder:
     def _add(self, ch: int, t_ns: int, data: bytes) -> None:
         t_ns = max(t_ns, self._last_ns.get(ch, 0))  # non-decreasing per channel
         self._last_ns[ch] = t_ns
-        seq = self._seq.get(ch, 0)
-        self._seq[ch] = seq + 1
-        self._w.add_message(channel_id=ch, log_time=t_ns, data=data, publish_time=t_ns, sequence=seq)
+        self._w.add_message(ch, t_ns, data)
 
     def _write_proto(self, topic: str, msg: Any, t_ns: int) -> None:
         self._add(self._channel_proto(topic, type(msg)), t_ns, msg.SerializeToString())
@@ -301,15 +281,12 @@ class McapRecorder:
         states = wire.joint_states(idx, names, base, joints)
         transforms = self._transforms(t_ns, base, joints, base_moved, arm_moved)
         t_l = t_ns.tolist()
-        rows: list[tuple[int, int, bytes, int]] = []
-        jseq, tseq = self._seq.get(jch, 0), self._seq.get(tch, 0)
-        for i, (ns, state, tf) in enumerate(zip(t_l, states, transforms, strict=True)):
-            rows.append((jch, ns, state, jseq + i))
+        rows: list[tuple[int, int, bytes]] = []
+        for ns, state, tf in zip(t_l, states, transforms, strict=True):
+            rows.append((jch, ns, state))
             if tf is not None:
-                rows.append((tch, ns, tf, tseq))
-                tseq += 1
+                rows.append((tch, ns, tf))
         self._w.add_messages(rows)
-        self._seq[jch], self._seq[tch] = jseq + n, tseq
         self._last_ns[jch] = self._last_ns[tch] = t_l[-1]
 
     def _transforms(self, t_ns: np.ndarray, base: np.ndarray, joints: np.ndarray, base_moved: np.ndarray,
@@ -317,9 +294,7 @@ class McapRecorder:
         """Per sample, the serialized /tf FrameTransforms (None where nothing moved): world ->
         base_link where the (finite) base pose moved, then the arm's link frames where the (finite)
         joints moved. Each refills a template message (``_tf_template``) that protobuf's C code
-        serializes. (Numpy record arrays, as for /joint_states in record/wire.py, measured no
-        faster here: timestamps vary in encoded length, and per layout group numpy's per-call
-        overhead eats the gain at about a hundred samples per action.)"""
+        serializes."""
         move_b = (base_moved & np.isfinite(base).all(axis=1)).tolist()  # a non-finite base pose has no transform
         links: dict[int, tuple[list, list]] = {}
         if self.robot is not None and joints.shape[1]:
@@ -356,7 +331,7 @@ class McapRecorder:
     def _link_poses(self, joints: np.ndarray) -> list[tuple[list, list]]:
         """Per row of ``joints`` [N, J] [rad], the link frames' (translations [L][3] [m], quaternions
         [L][4]). A single row (an action's first sample, where the arm usually rests as the last
-        action left it) is memoised: numpy's overhead for one row is most of a navigate action's /tf."""
+        action left it) is memoised."""
         key = joints.tobytes() if len(joints) == 1 else None
         if key is not None and key in self._link_memo:
             return [self._link_memo[key]]
@@ -371,8 +346,8 @@ class McapRecorder:
     def _tf_template(self, with_base: bool, with_arm: bool) -> tuple[FrameTransforms, list[tuple[Any, Any, Any]]]:
         """A FrameTransforms with world -> base_link (``with_base``) and the arm's link frames
         (``with_arm``), and per transform its (timestamp, translation, rotation) sub-messages, held
-        so that refilling them skips the attribute lookups (2x faster per sample). Made once per
-        recorder; a field set to zero is left out of the serialization, as in a new message."""
+        so that refilling them skips the attribute lookups. Made once per recorder; a field set to
+        zero is left out of the serialization, as in a new message."""
         key = (with_base, with_arm)
         if key not in self._tf_templates:
             msg = FrameTransforms()
@@ -410,16 +385,11 @@ class McapRecorder:
         self._w.add_metadata("end", {"status": status, "error": error, "n_actions": str(self._n_actions),
                                      "sim_time": repr(float(self._clock))})
         self._w.finish()
-        if self._file is not None:
-            self._file.flush()
-            os.fsync(self._file.fileno())
-            self._file.close()
-        else:  # the SDK wrote and closed the file itself
-            fd = os.open(self.partial_path, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+        fd = os.open(self.partial_path, os.O_RDONLY)  # the SDK wrote and closed the file: make it durable
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
         os.replace(self.partial_path, self.path)
         self._closed = True
         return self.path

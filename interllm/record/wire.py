@@ -1,21 +1,19 @@
 """Protobuf wire-format bytes of the run log's array-shaped messages, many per numpy call.
 
-Per trajectory sample the recorder writes an ``interllm.JointStates``; built one by one through the
-generated class, each costs a few microseconds, about as much as the simulation step it records.
-The samples of an action share one layout (same action index, joint names and number of
-doubles), so they are written here as the rows of one uint8 array: constant bytes (keys, lengths,
-names) are broadcast and the doubles copied in as their little-endian bytes; each row is one
-message. A path's poses (``foxglove.PosesInFrame``) are one record array the same way.
+Per trajectory sample the recorder writes an ``interllm.JointStates``. The samples of an action
+share one layout (same action index, joint names and number of doubles), so they are written here
+as the rows of one uint8 array rather than through the generated class one by one: constant bytes
+(keys, lengths, names) are broadcast and the doubles copied in as their little-endian bytes; each
+row is one message. A path's poses (``foxglove.PosesInFrame``) are one record array the same way.
 
 - ``joint_states``: canonical, byte-identical to ``SerializeToString()``.
 - ``planar_poses_in_frame``: the doubles of a planar pose (x, y, rotation z and w) are written
   also when zero, which proto3's canonical form leaves out; a proto3 parser reads both as the
   same message. The timestamp is canonical.
 
-``tests/test_record_wire.py`` checks both against the generated classes. (``/tf`` messages are
-not built here: their timestamps vary in length from sample to sample, and record arrays grouped
-by layout took as long as refilling one generated message per sample, measured on the default
-experiment's missions, because numpy's per-call overhead is paid per group and action.)
+``tests/test_record_wire.py`` checks both against the generated classes. ``/tf`` messages are not
+built here: their timestamps vary in encoded length from sample to sample, so the samples of an
+action do not share one layout (the recorder refills generated messages for them).
 
 Wire format (https://protobuf.dev/programming-guides/encoding/): a field is a varint key
 ``(field_number << 3) | wire_type`` and its value; wire type 0 is a varint, 1 a little-endian
