@@ -1,6 +1,6 @@
-"""The README's "Adding a planner" and "Adding a backend" recipes, followed once each: a planner, an
-LLM backend and a proposal mode defined here, registered, and run on the quick experiment
-(one paper-size scene, the paper's mission) through the real stages."""
+"""The recipes of docs/extending.md ("Adding a planner", "Adding an LLM backend", "Adding a proposal
+mode"), followed once each: a planner, an LLM backend and a proposal mode defined here, registered,
+and run on the quick experiment (one paper-size scene, the paper's mission) through the real stages."""
 
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from interllm.planners.base import CommandResult
 from interllm.planners.context import PlannerContext
 from interllm.planners.execution import execute_plan, finish, new_result
 from interllm.planning.plans import assemble_plan
-from interllm.planning.proposers import PLAN_PROPOSERS, Exclusions
+from interllm.planning.proposers import PLAN_PROPOSERS
+from interllm.planning.request import PlanRequest
 from interllm.scene.graph import Command
 from interllm.stages.aggregate import run_aggregate
 from interllm.stages.candidates import run_candidates
@@ -89,21 +90,21 @@ class NearestObjectsProposer:
     def __init__(self, client, cfg) -> None:
         self.client, self.cfg = client, cfg
 
-    def _plan(self, scene, state, n_objects, exclude: Exclusions):
+    def _plan(self, req: PlanRequest):
+        scene, state, exclude = req.scene, req.state, req.exclude
         target = sorted(f for f in scene.furniture if f not in exclude.targets)[-1]
         objs = [o for o in sorted(scene.objects) if o not in exclude.objects and o != state.holding
-                and scene.objects[o].furniture != target][:n_objects]
+                and scene.objects[o].furniture != target][:req.n_objects]
         return assemble_plan(scene, state, objs, target)
 
-    def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
-        return [self._plan(scene, state, n_objects, exclude)]
+    def propose(self, req, *, n_plans, seed):
+        return [self._plan(req)]
 
-    def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
-               context):
-        return self._plan(scene, state, n_objects, exclude)
+    def repair(self, req, plan, report, *, round_index, candidate):
+        return self._plan(req)
 
-    def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
-        return self._plan(scene, state, n_objects, exclude)
+    def replan(self, req, *, executed, failure, attempt, seed):
+        return self._plan(req)
 
 
 @pytest.fixture
