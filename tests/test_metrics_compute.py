@@ -21,12 +21,12 @@ from interllm.core.results import ActionResult, man_cost, nav_cost
 from interllm.metrics.compute import (
     Gammas,
     MetricsInputError,
-    aggregate,
     assign_slots,
     m_overall,
     mission_rows,
     read_csv,
 )
+from interllm.stages.aggregate import write_metrics
 
 SCENE = {"category": {"apple_1": "apple", "bread_1": "bread", "laptop_1": "laptop", "mug_1": "mug",
                       "book_1": "book"},
@@ -173,7 +173,7 @@ def test_aggregate_writes_tables(tmp_path):
     base.commands[1].actions[2].collisions = 5  # +3 collisions -> +30 on obj 3
     write_json(tmp_path / "runs" / "sayplan" / "s0" / "m000.json", base.to_dict())
     cfg = ExperimentConfig()
-    out = aggregate(tmp_path / "runs", tmp_path / "scenes", cfg, tmp_path / "metrics")
+    out = write_metrics(tmp_path / "runs", tmp_path / "scenes", cfg, tmp_path / "metrics")
     assert out["planners"]["inter_llm"]["m_overall"] == pytest.approx(562)
     assert out["planners"]["sayplan"]["m_overall"] == pytest.approx(592)
     imp = out["improvement"]["inter_llm_vs_sayplan"]
@@ -199,11 +199,11 @@ def test_aggregate_writes_tables(tmp_path):
 
 def test_aggregate_errors_name_the_fix(tmp_path):
     with pytest.raises(MetricsInputError, match="missions"):
-        aggregate(tmp_path / "nope", tmp_path, ExperimentConfig(), tmp_path / "m")
+        write_metrics(tmp_path / "nope", tmp_path, ExperimentConfig(), tmp_path / "m")
     from interllm.io import write_json
     write_json(tmp_path / "runs" / "inter_llm" / "s9" / "m000.json", {**record().to_dict(), "scene_id": "s9"})
     with pytest.raises(MetricsInputError, match="scene.json"):
-        aggregate(tmp_path / "runs", tmp_path / "scenes", ExperimentConfig(), tmp_path / "m")
+        write_metrics(tmp_path / "runs", tmp_path / "scenes", ExperimentConfig(), tmp_path / "m")
 
 
 def _one(cmds: list) -> MissionRecord:

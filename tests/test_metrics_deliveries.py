@@ -16,8 +16,9 @@ from interllm.core.actions import Action
 from interllm.core.records import CommandRecord, GoalRecord, MissionRecord
 from interllm.io import write_json
 from interllm.metrics import claims, deliveries
-from interllm.metrics.compute import Gammas, aggregate, mission_rows
+from interllm.metrics.compute import Gammas, mission_rows
 from interllm.planners import PLANNERS
+from interllm.stages.aggregate import write_metrics
 
 G = Gammas(10.0, 100.0, 100.0)
 SCENE = {"category": {"apple_1": "apple", "apple_2": "apple", "bread_1": "bread", "mug_1": "mug"},
@@ -171,14 +172,15 @@ def test_break_even_gamma_obj_on_a_constructed_example():
     rows = []
     for i in range(6):
         rows += _slots("inter_llm", f"m{i}", 1, 200.0 + (i % 2)) + _slots("sayplan", f"m{i}", 3, 400.0 / 3 + (i % 2))
-    s = deliveries.gamma_obj_sensitivity(rows, 10.0, 100.0, [50.0, 100.0, 500.0], "inter_llm", n_boot=300)
+    s = deliveries.gamma_obj_sensitivity(rows, gamma_nav=10.0, gamma_man=100.0, gammas=[50.0, 100.0, 500.0],
+                                          reference="inter_llm", n_boot=300)
     c = s["comparisons"]["inter_llm_vs_sayplan"]
     assert c["exec_diff"] == pytest.approx(200.0) and c["undelivered_diff"] == pytest.approx(-2.0)
     assert c["break_even"] == pytest.approx(100.0) and c["reference_lower_above"] is True
     assert c["by_gamma"]["100"]["diff"] == pytest.approx(0.0, abs=1e-9)
     assert c["by_gamma"]["50"]["diff"] == pytest.approx(100.0) and c["by_gamma"]["500"]["diff"] == pytest.approx(-800.0)
     assert s["planners"]["inter_llm"]["m_overall"]["500"] == pytest.approx(3 * 200.5 + 500.0)
-    from interllm.metrics.report_sections import break_even_text
+    from interllm.metrics.delivery_sections import break_even_text
     assert break_even_text(c, "inter_llm").startswith("100.0: ")
 
 
@@ -232,7 +234,7 @@ def runs(tmp_path, references):
 
 def test_aggregate_writes_deliveries_position_and_the_references(runs):
     cfg = from_dict({"metrics": {"bootstrap_samples": 200, "gamma_obj_sensitivity": [100.0, 300.0]}})
-    out = aggregate(runs / "runs", runs / "scenes", cfg, runs / "metrics")
+    out = write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
     pl = out["planners"]
     assert pl["nothing"]["position"] == 0.0 and pl["optimal"]["position"] == 1.0
     assert pl["nothing"]["reference"] is True and pl["inter_llm"]["reference"] is False
@@ -250,7 +252,7 @@ def test_aggregate_writes_deliveries_position_and_the_references(runs):
     o = claims.ordering(out)
     assert out["improvement"]["inter_llm_vs_sayplan"]["ci_lo"] > 0 and o["verdict"] == claims.FEWER
     first = (runs / "metrics" / "metrics.json").read_bytes()
-    aggregate(runs / "runs", runs / "scenes", cfg, runs / "metrics")
+    write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
     assert (runs / "metrics" / "metrics.json").read_bytes() == first
 
 
@@ -258,7 +260,7 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
     from interllm.metrics.report import build_report
 
     cfg = from_dict({"metrics": {"bootstrap_samples": 200}})
-    aggregate(runs / "runs", runs / "scenes", cfg, runs / "metrics")
+    write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
     write_json(runs / "scenes" / "s0" / "feasibility.json", {"totals": {"slots_asked": 12, "slots_fulfillable": 9}})
     md = build_report(runs / "metrics", runs / "scenes", runs / "runs", runs / "report", cfg)["markdown"].read_text()
     head = md.split("## ")[1]
@@ -275,7 +277,7 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
         for f in (runs / "runs" / p / "s0").iterdir():
             f.unlink()
     (runs / "scenes" / "s0" / "feasibility.json").write_text("{not json")
-    aggregate(runs / "runs", runs / "scenes", cfg, runs / "metrics")
+    write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
     md = build_report(runs / "metrics", runs / "scenes", runs / "runs", runs / "report", cfg)["markdown"].read_text()
     head = md.split("## ")[1]
     assert "position [CI]" not in head and "No runs of the `nothing` and `optimal` references" in head
@@ -283,7 +285,7 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
 
 
 def test_missing_feasibility_is_said(tmp_path):
-    from interllm.metrics.report_sections import feasibility_sentence
+    from interllm.metrics.delivery_sections import feasibility_sentence
 
     s = feasibility_sentence(tmp_path, ["s0"], {})
     assert "No feasibility.json" in s and "s0" in s
@@ -295,7 +297,7 @@ def test_encoding_runs_are_found_paired_and_reported(runs):
     from interllm.stages.report import find_encoding_results, find_oracle_results
 
     cfg = from_dict({"metrics": {"bootstrap_samples": 200}})
-    aggregate(runs / "runs", runs / "scenes", cfg, runs / "metrics")
+    write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
     sweep = runs / "multirun"
     for n, (oc, ce, err) in enumerate((("classes", "paper", 0.0), ("numeric", "paper", 0.0), ("classes", "expected", 0.0),
                                        ("classes", "paper", 0.5), ("numeric", "paper", 0.5), ("classes", "paper", 0.9))):
@@ -304,7 +306,7 @@ def test_encoding_runs_are_found_paired_and_reported(runs):
         (job / ".hydra" / "config.yaml").write_text(json.dumps(
             {"experiment": "oracle_sweep", "llm": {"oracle_error": err, "oracle_costs": oc, "cache_dir": f"/c{n}"},
              "planner": {"cost_encoding": ce}}))
-        aggregate(runs / "runs", runs / "scenes", cfg, job / "data" / "metrics")
+        write_metrics(runs / "runs", runs / "scenes", cfg, job / "data" / "metrics")
     found = find_encoding_results(sweep)
     assert [(g, v) for g, v, _ in found] == [
         ("llm.oracle_error=0.0", "oracle_costs=classes, cost_encoding=expected"),

@@ -10,7 +10,8 @@ from interllm.core.actions import Action
 from interllm.core.records import CommandRecord, CommandSummary, CostInference, GoalRecord, MissionRecord
 from interllm.core.results import ActionResult, man_cost, nav_cost
 from interllm.io import write_json
-from interllm.metrics.compute import aggregate, read_csv
+from interllm.metrics.compute import read_csv
+from interllm.stages.aggregate import write_metrics
 
 PLANNERS = {"inter_llm": 0.6, "sayplan": 1.4, "moma_llm": 1.0}  # cost scale: inter_llm cheapest
 CATS = ["apple", "bread", "milk", "laptop", "notebook", "cellphone", "book", "newspaper", "mug"]
@@ -98,15 +99,15 @@ def experiment(tmp_path_factory):
 
 def test_metrics_json_byte_identical(experiment):
     root, cfg = experiment
-    aggregate(root / "runs", root / "scenes", cfg, root / "m1")
-    aggregate(root / "runs", root / "scenes", cfg, root / "m2")
+    write_metrics(root / "runs", root / "scenes", cfg, root / "m1")
+    write_metrics(root / "runs", root / "scenes", cfg, root / "m2")
     for name in ("metrics.json", "per_object.csv", "cumulative.csv", "per_object_summary.csv",
                  "semantic_accuracy.csv"):
         assert (root / "m1" / name).read_bytes() == (root / "m2" / name).read_bytes(), name
     # a different bootstrap seed changes the CIs but not the means
     cfg2 = from_dict({"metrics": {"bootstrap_samples": 300, "seed": 5}})
-    b = aggregate(root / "runs", root / "scenes", cfg2, root / "m3")
-    a = aggregate(root / "runs", root / "scenes", cfg, root / "m1")
+    b = write_metrics(root / "runs", root / "scenes", cfg2, root / "m3")
+    a = write_metrics(root / "runs", root / "scenes", cfg, root / "m1")
     assert a["planners"]["sayplan"]["m_overall"] == b["planners"]["sayplan"]["m_overall"]
     assert a["planners"]["sayplan"]["m_overall_ci_lo"] != b["planners"]["sayplan"]["m_overall_ci_lo"]
     assert len(read_csv(root / "m1" / "per_object.csv")) == 3 * 2 * 3 * 9
@@ -117,8 +118,8 @@ def test_report_builds(experiment):
 
     root, cfg = experiment
     mdir = root / "m1"
-    aggregate(root / "runs", root / "scenes", cfg, mdir)
-    aggregate(root / "runs", root / "scenes", cfg, root / "t02", temperature=0.2)
+    write_metrics(root / "runs", root / "scenes", cfg, mdir)
+    write_metrics(root / "runs", root / "scenes", cfg, root / "t02", temperature=0.2)
     out = build_report(mdir, root / "scenes", root / "runs", root / "report", cfg,
                        temperature_results=[("σ=0.2", root / "t02"), ("σ=1.0", root / "missing")],
                        m_results=[("M=3", mdir), ("M=5", root / "missing")])
@@ -154,7 +155,7 @@ def test_report_missing_metrics_names_stage(tmp_path):
 @pytest.mark.parametrize("lo, hi, verdict", [(2.0, 9.0, " holds on our runs"), (-4.6, 5.7, "cannot be told"),
                                              (-9.0, -2.0, "does not hold")])
 def test_the_ordering_is_judged_by_the_paired_intervals_not_the_mean_rank(lo, hi, verdict):
-    from interllm.metrics.report import ordering_sentence
+    from interllm.metrics.summary_sections import ordering_sentence
 
     metrics = {"planners": {"inter_llm": {"m_overall": 100.0}, "sayplan": {"m_overall": 101.0}},
                "improvement": {"inter_llm_vs_sayplan": {"pct": 1.0, "ci_lo": lo, "ci_hi": hi}}}
@@ -166,7 +167,7 @@ def test_estimate_variants_are_paired_against_this_run(experiment):
 
     root, cfg = experiment
     mdir = root / "m1"
-    aggregate(root / "runs", root / "scenes", cfg, mdir)
+    write_metrics(root / "runs", root / "scenes", cfg, mdir)
     assert cfg.planner.nav_estimate == "prior"  # this run's estimate: its own row, never a variant of itself
     out = build_report(mdir, root / "scenes", root / "runs", root / "rep_est", cfg,
                        estimate_results=[("paper_sum", mdir), ("prior", mdir), ("weighted_mean", root / "missing")])

@@ -1,17 +1,21 @@
-"""Metrics of executed missions (paper §V): per-object/command/mission tables, m_overall,
-bootstrap CIs, paired planner comparison, semantic-similarity accuracy, the report. Objects
-delivered, the position between the nothing and optimal references, the γ_obj sensitivity and
-candidate diversity are in ``interllm.metrics.deliveries`` (it loads the planner registry).
+"""Metrics of executed missions (paper §V) and the report built from them.
 
-``aggregate(runs_dir, scenes_dir, cfg, out_dir)`` is the aggregate stage;
-``build_report(metrics_dir, scenes_dir, runs_dir, out_dir, cfg)`` the report stage (import it from
-``interllm.metrics.report``; it pulls in matplotlib).
+- ``compute``: per-object/command/mission tables and m_overall; ``summary``: per planner means
+  with bootstrap CIs; ``stats``: bootstrap CIs, paired planner comparison, semantic-similarity
+  accuracy; ``deliveries``: objects delivered, the position between the nothing and optimal
+  references, the γ_obj sensitivity and candidate diversity (it loads the planner registry);
+  ``manipulation``, ``capability``, ``claims``, ``llm_usage``, ``compare``.
+- The report (``report.build_report``; it pulls in matplotlib): the document model ``doc``, the
+  sections ``delivery_sections``, ``summary_sections``, ``paper_tables``, ``figure_sections`` and
+  ``sweep_sections``, the figures ``plots``.
+
+The aggregate and report stages that call them are ``interllm.stages.aggregate`` and
+``interllm.stages.report``.
 """
 
 from interllm.metrics.compute import (
     Gammas,
     MetricsInputError,
-    aggregate,
     compute_tables,
     load_runs,
     load_scene_categories,
@@ -27,6 +31,6 @@ from interllm.metrics.stats import (
     semantic_accuracy,
 )
 
-__all__ = ["Gammas", "MetricsInputError", "aggregate", "bootstrap_mean_ci", "compare_planners",
+__all__ = ["Gammas", "MetricsInputError", "bootstrap_mean_ci", "compare_planners",
            "compute_tables", "load_runs", "load_scene_categories", "m_overall", "mission_rows",
            "paired_improvement", "read_csv", "semantic_accuracy", "write_csv"]

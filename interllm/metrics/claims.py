@@ -58,7 +58,7 @@ def references(metrics: Mapping) -> set[str]:
 
 def deliveries(metrics: Mapping) -> dict[str, tuple[float, float, float]]:
     """{baseline: (delivered difference, lo, hi)} [objects per mission, Inter-LLM − baseline] from
-    ``metrics.json`` "comparisons" (empty for older files without it)."""
+    ``metrics.json`` "comparisons" (empty when the file has none)."""
     return {v.get("baseline", k.split("_vs_", 1)[1]): (_num(v.get("delivered_diff")), _num(v.get("delivered_diff_ci_lo")),
                                                        _num(v.get("delivered_diff_ci_hi")))
             for k, v in metrics.get("comparisons", {}).items()}

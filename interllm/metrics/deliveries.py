@@ -182,10 +182,11 @@ def _exec_undelivered(per_object: Iterable[Mapping], gamma_nav: float, gamma_man
     return {p: {k: (v[0], v[1]) for k, v in d.items()} for p, d in out.items()}
 
 
-def gamma_obj_sensitivity(per_object: Iterable[Mapping], gamma_nav: float, gamma_man: float,
+def gamma_obj_sensitivity(per_object: Iterable[Mapping], *, gamma_nav: float, gamma_man: float,
                           gammas: Sequence[float], reference: str, n_boot: int = 2000, ci: float = 0.95,
                           seed: int = 0) -> dict:
-    """m_overall per mission recomputed from the per-slot rows at each γ_obj in ``gammas`` [s].
+    """m_overall per mission recomputed from the per-slot rows at each γ_obj in ``gammas`` [s]
+    (γ_nav [s / collision], γ_man [s]).
 
     Returns {"gammas": [...], "planners": {planner: {"exec" [E, s / mission], "undelivered"
     [U, slots / mission], "m_overall": {γ key: mean m(γ) [s / mission]}}}, "comparisons":
@@ -243,19 +244,21 @@ def candidate_diversity(records: Iterable[MissionRecord]) -> dict[str, dict]:
 
 # ---- everything the aggregate stage adds -------------------------------------------------------
 def delivery_metrics(records: Sequence[MissionRecord], per_object: Sequence[Mapping], per_mission: Sequence[Mapping],
-                     gamma_nav: float, gamma_man: float, gammas: Sequence[float], reference: str,
+                     *, gamma_nav: float, gamma_man: float, gammas: Sequence[float], reference: str,
                      n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> dict:
     """{"planners": {planner: fields to merge into metrics.json's planners (``planner_deliveries``,
     ``positions``, "reference")}, "comparisons", "references", "gamma_obj_sensitivity",
-    "candidate_diversity"} (module doc; γ_nav [s / collision], γ_man [s])."""
+    "candidate_diversity"} (module doc; γ_nav [s / collision], γ_man [s], ``gammas``: the γ_obj values
+    of the sensitivity table [s])."""
     dl = planner_deliveries(per_mission, gamma_nav, n_boot, ci, seed)
     pos = positions(per_mission, n_boot, ci, seed)
     planners = {p: {"reference": is_reference(p), **dl[p], **pos.get(p, {})} for p in sorted(dl)}
     return {"planners": planners,
             "comparisons": paired_comparisons(per_mission, reference, n_boot, ci, seed),
             "references": references_info(planners),
-            "gamma_obj_sensitivity": gamma_obj_sensitivity(per_object, gamma_nav, gamma_man, gammas, reference,
-                                                           n_boot, ci, seed),
+            "gamma_obj_sensitivity": gamma_obj_sensitivity(per_object, gamma_nav=gamma_nav, gamma_man=gamma_man,
+                                                           gammas=gammas, reference=reference, n_boot=n_boot,
+                                                           ci=ci, seed=seed),
             "candidate_diversity": candidate_diversity(records)}
 
 

@@ -132,3 +132,18 @@ def num_or_nan(v: Any) -> float:
         return float(v)
     except (TypeError, ValueError):
         return float("nan")
+
+
+def ci(v: Any, lo: Any, hi: Any, nd: int = 1, sign: bool = False) -> str:
+    """"v [lo, hi]" (signed with ``sign``); "v" alone without an interval; "–" without a value."""
+    def one(x: Any) -> str:
+        s = fnum(x, nd)
+        if s == "–" or float(s) == 0:
+            return s.lstrip("-")
+        return f"+{s}" if sign and not s.startswith("-") else s
+
+    if math.isnan(num_or_nan(v)):
+        return "–"
+    if math.isnan(num_or_nan(lo)) or math.isnan(num_or_nan(hi)):
+        return one(v)
+    return f"{one(v)} [{one(lo)}, {one(hi)}]"

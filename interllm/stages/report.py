@@ -11,11 +11,11 @@ import yaml
 from interllm.config import ExperimentConfig
 from interllm.metrics.compare import flatten
 from interllm.metrics.report import build_report
-from interllm.metrics.report_sections import ENCODING_DEFAULTS, ENCODING_KEYS, encoding_label
+from interllm.metrics.sweep_sections import ENCODING_DEFAULTS, ENCODING_KEYS, encoding_label
 
 
 def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_dir: Path,
-               out_dir: Path, temperature_results: Iterable[tuple[str, Path]] = (),
+               out_dir: Path, *, temperature_results: Iterable[tuple[str, Path]] = (),
                m_results: Iterable[tuple[str, Path]] = (),
                estimate_results: Iterable[tuple[str, Path]] = (),
                oracle_results: Iterable[tuple[float, Path]] = (),
@@ -53,7 +53,7 @@ def _get(c: dict, key: str, default: object = None) -> object:
 
 
 def _encoding(c: dict) -> tuple[str, str]:
-    """(llm.oracle_costs, planner.cost_encoding) of a job's config (the defaults when absent: older runs)."""
+    """(llm.oracle_costs, planner.cost_encoding) of a job's config (the defaults where the config has none)."""
     (oc_key, ce_key), (oc_default, ce_default) = ENCODING_KEYS, ENCODING_DEFAULTS
     return str(_get(c, oc_key, oc_default)), str(_get(c, ce_key, ce_default))
 

@@ -8,8 +8,7 @@
 - ``gamma_obj_section``: mean m_overall per mission at each γ_obj of
   ``metrics.gamma_obj_sensitivity``, the paired differences and the break-even γ_obj;
 - ``diversity_section``: the share of commands whose plan candidates take different objects;
-- ``encoding_section``: runs of a multirun that differ only in ``llm.oracle_costs`` and/or
-  ``planner.cost_encoding``, paired against the paper's encoding.
+- ``llm_usage_section``: the LLM requests and prompt tokens per command of each planner, by phase.
 """
 
 from __future__ import annotations
@@ -19,38 +18,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Optional
 
-from interllm.core.seeding import bootstrap_seed
 from interllm.io import read_json
 from interllm.metrics import plots
-from interllm.metrics.compute import read_csv
-from interllm.metrics.deliveries import NOTHING, OPTIMAL, gamma_key, paired_runs
-from interllm.metrics.doc import Doc, fnum, num_or_nan, ordered, pct
-
-ENCODING_KEYS = ("llm.oracle_costs", "planner.cost_encoding")
-ENCODING_DEFAULTS = ("classes", "paper")  # the paper's: three cost classes, the paper's text encoding
-
-
-def encoding_label(oracle_costs: str, cost_encoding: str) -> str:
-    """The label of one encoding variant ("oracle_costs=classes, cost_encoding=paper")."""
-    return f"oracle_costs={oracle_costs}, cost_encoding={cost_encoding}"
-
-
-BASE_ENCODING = encoding_label(*ENCODING_DEFAULTS)
-
-
-def ci(v: Any, lo: Any, hi: Any, nd: int = 1, sign: bool = False) -> str:
-    """"v [lo, hi]" (signed with ``sign``); "v" alone without an interval; "–" without a value."""
-    def one(x: Any) -> str:
-        s = fnum(x, nd)
-        if s == "–" or float(s) == 0:
-            return s.lstrip("-")
-        return f"+{s}" if sign and not s.startswith("-") else s
-
-    if math.isnan(num_or_nan(v)):
-        return "–"
-    if math.isnan(num_or_nan(lo)) or math.isnan(num_or_nan(hi)):
-        return one(v)
-    return f"{one(v)} [{one(lo)}, {one(hi)}]"
+from interllm.metrics.deliveries import NOTHING, OPTIMAL, gamma_key
+from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
 
 
 def _split(planners: Mapping[str, Mapping]) -> tuple[list[str], list[str]]:
@@ -296,52 +267,3 @@ def llm_usage_section(doc: Doc, usage: Mapping) -> None:
                      f"{fnum(u['per_command']['requests'], 2)} / {fnum(u['per_command']['tokens_in'], 0)}",
                      fnum(u["per_command"].get("selection_requests"), 2), pct(sel.get("widened_share"))])
     doc.table(["planner", "commands", *phases, "all", "room selections / command", "widened"], rows)
-
-
-# ---- encodings (multirun) --------------------------------------------------------------------
-def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics: Mapping,
-                     reference: str = "inter_llm") -> None:
-    """Runs that differ only in ``llm.oracle_costs`` and/or ``planner.cost_encoding``: results are
-    (group, variant label, metrics_dir) with one group per setting of every other key
-    (``interllm.stages.report.find_encoding_results``); each variant of a group is paired against
-    the group's paper encoding (``BASE_ENCODING``, else its first variant) on the missions both ran."""
-    groups: dict[str, dict[str, Path]] = {}
-    for g, v, d in results:
-        if (Path(d) / "per_mission.csv").is_file() and (Path(d) / "metrics.json").is_file():
-            groups.setdefault(str(g), {})[str(v)] = Path(d)
-    groups = {g: vs for g, vs in groups.items() if len(vs) >= 2}
-    if not groups:
-        return
-    st = metrics.get("settings", {})
-    n_boot, cov, seed = int(st.get("bootstrap_samples", 2000)), float(st.get("ci", 0.95)), int(st.get("seed", 0))
-    ref = plots.label(reference)
-    doc.h(2, "Cost encoding: class or numeric oracle costs, paper or expected encoding")
-    doc.p(f"{ref} in runs that differ only in llm.oracle_costs (classes: the paper's three cost classes; numeric: "
-          "the measured cost) and/or planner.cost_encoding (paper; expected: plus γ_obj × the chance the action "
-          f"fails outright). Each variant is paired against {BASE_ENCODING} of its group on the missions both ran "
-          "(variant − base; 95% paired bootstrap CIs; the position difference resamples the missions jointly for "
-          f"{ref} and both references of both runs).")
-    rows = []
-    for g in sorted(groups):
-        vs = groups[g]
-        base = BASE_ENCODING if BASE_ENCODING in vs else sorted(vs)[0]
-        base_rows = read_csv(vs[base] / "per_mission.csv")
-        for v in [base] + sorted(set(vs) - {base}):
-            d = read_json(vs[v] / "metrics.json").get("planners", {}).get(reference, {})
-            row = [g or "–", v + (" (base)" if v == base else ""),
-                   ci(d.get("delivered_per_mission"), d.get("delivered_per_mission_ci_lo"),
-                      d.get("delivered_per_mission_ci_hi"), 2),
-                   ci(d.get("m_overall"), d.get("m_overall_ci_lo"), d.get("m_overall_ci_hi")),
-                   ci(d.get("position"), d.get("position_ci_lo"), d.get("position_ci_hi"), 2)]
-            if v == base:
-                row += ["–"] * 4
-            else:
-                c = paired_runs(read_csv(vs[v] / "per_mission.csv"), base_rows, reference, n_boot, cov,
-                                bootstrap_seed(seed, f"encoding:{g}:{v}"))
-                row += [str(c["n_pairs"]),
-                        ci(c["delivered_diff"], c["delivered_diff_ci_lo"], c["delivered_diff_ci_hi"], 2, sign=True),
-                        ci(c["m_overall_diff"], c["m_overall_diff_ci_lo"], c["m_overall_diff_ci_hi"], sign=True),
-                        ci(c["position_diff"], c["position_diff_ci_lo"], c["position_diff_ci_hi"], 2, sign=True)]
-            rows.append(row)
-    doc.table(["runs", "variant", "delivered / mission [CI]", "m_overall / mission [CI]", "position [CI]", "pairs",
-               "Δ delivered [CI]", "Δ m_overall [CI]", "Δ position [CI]"], rows)
