@@ -33,6 +33,7 @@ from interllm.core.actions import State
 from interllm.llm import embedded, make_client
 from interllm.llm.types import ScoreRequest
 from interllm.planning import scoring
+from interllm.planning.request import PlanRequest
 from interllm.scene.catalog import scene_config
 from interllm.scene.generator import generate_scene
 from interllm.scene.missions import generate_missions
@@ -73,8 +74,9 @@ def run(size: str, n: int) -> None:
                 secs.append(time.perf_counter() - t0)
                 tokens.append(client.stats.tokens_in - before)
                 state = State(mission.start_furniture, scene.furniture[mission.start_furniture].room, None)
-                plans = scoring.propose_by_scores(scores, scene, state, cmd.goal.n_objects, 3,
-                                                  cfg.plan_sampling_temperature, 0)
+                req = PlanRequest(scene, state, cmd, cmd.goal.n_objects)
+                plans = scoring.propose_by_scores(scores, req, n_plans=3, temperature=cfg.plan_sampling_temperature,
+                                                  seed=0)
                 objs = [a.obj for p in plans for a in p if a.kind == "pickup"]
                 rel.append(np.mean([scene.objects[o].category in cmd.goal.categories for o in objs]) if objs else 0.0)
             client.close()

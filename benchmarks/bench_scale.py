@@ -117,7 +117,8 @@ def generate_one(rooms: int, setting: str, base_url: str, tokenizer) -> dict:
     from interllm.planners.candidates import start_state
     from interllm.planning.expansion import flat_view
     from interllm.planning.feasibility import check_plan
-    from interllm.planning.proposers import Exclusions, make_proposer
+    from interllm.planning.proposers import make_proposer
+    from interllm.planning.request import PlanRequest
     from interllm.scene.generator import generate_scene
     from interllm.scene.missions import generate_missions
 
@@ -137,15 +138,13 @@ def generate_one(rooms: int, setting: str, base_url: str, tokenizer) -> dict:
                       room_beam=0 if setting == "flat" else cfg.llm.room_beam)
         client = make_client(llm, call_log_path=Path(tmp) / "calls.jsonl")
         proposer, ctx = make_proposer(client, llm).plans, (("planner", "bench"), ("command", command.id))
-        n, t0 = int(command.goal.n_objects), time.perf_counter()
-        for j, plan in enumerate(proposer.propose(scene, state, command, M, n, known=None, exclude=Exclusions(),
-                                                  seed=0, context=ctx)):
+        req, t0 = PlanRequest(scene, state, command, int(command.goal.n_objects), context=ctx), time.perf_counter()
+        for j, plan in enumerate(proposer.propose(req, n_plans=M, seed=0)):
             for rnd in range(cfg.planner.max_regenerations):
                 report = check_plan(plan, scene, state)
                 if report.valid:
                     break
-                plan = proposer.repair(plan, report, scene, state, command, n, round_index=rnd, candidate=j,
-                                       known=None, exclude=Exclusions(), context=ctx)
+                plan = proposer.repair(req, plan, report, round_index=rnd, candidate=j)
         wall = time.perf_counter() - t0
         client.close()
         u = planner_usage(read_records(Path(tmp) / "calls.jsonl"))["bench"]
@@ -160,7 +159,7 @@ def main_generate(rooms_list: list[int]) -> int:
     sys.path.insert(0, str(ROOT / "tests"))
     from openai_fixture import llama_server
 
-    from interllm.llm.embedded import resolve_model_path
+    from interllm.llm.model_files import resolve_model_path
 
     model = str(resolve_model_path(""))
     tokenizer = llama_cpp.Llama(model, vocab_only=True, verbose=False)

@@ -20,7 +20,8 @@ from interllm.llm.types import LLMResponse
 from interllm.metrics.llm_usage import planner_usage
 from interllm.planning.expansion import rooms_view
 from interllm.planning.feasibility import check_plan
-from interllm.planning.proposers import Exclusions, make_proposer
+from interllm.planning.proposers import make_proposer
+from interllm.planning.request import Exclusions, PlanRequest
 from interllm.scene.catalog import scene_config
 from interllm.scene.generator import generate_scene
 from interllm.scene.missions import generate_missions
@@ -63,8 +64,9 @@ def propose(client, cfg: LLMConfig, scene=None, state=START, command=None, exclu
     scene = scene or tiny_scene()
     command = command or tiny_mission().commands[0]
     proposer = make_proposer(client, cfg).plans
-    plans = proposer.propose(scene, state, command, 2, command.goal.n_objects, known=None,
-                             exclude=Exclusions(tuple(exclude)), seed=0, context=(("command", command.id),))
+    req = PlanRequest(scene, state, command, command.goal.n_objects, exclude=Exclusions(tuple(exclude)),
+                      context=(("command", command.id),))
+    plans = proposer.propose(req, n_plans=2, seed=0)
     return proposer, plans
 
 
@@ -73,7 +75,7 @@ def tokenizer():
     """The embedded model's tokenizer (its GGUF's vocabulary only)."""
     import llama_cpp
 
-    from interllm.llm.embedded import resolve_model_path
+    from interllm.llm.model_files import resolve_model_path
 
     tok = llama_cpp.Llama(str(resolve_model_path("")), vocab_only=True, verbose=False)
     yield tok
@@ -90,8 +92,8 @@ def tokens_per_command(tok, size: str, room_beam: int) -> float:
     client = SchemaClient()
     proposer = make_proposer(client, replace(generate_cfg(), room_beam=room_beam)).plans
     for cmd in mission.commands:
-        proposer.propose(scene, state, cmd, cfg.planner.M, cmd.goal.n_objects, known=None, exclude=Exclusions(),
-                         seed=0, context=(("command", cmd.id),))
+        proposer.propose(PlanRequest(scene, state, cmd, cmd.goal.n_objects, context=(("command", cmd.id),)),
+                         n_plans=cfg.planner.M, seed=0)
     n = sum(len(tok.tokenize(r.messages[0].content.encode(), add_bos=True, special=True)) for r in client.requests)
     return n / len(mission.commands)
 
@@ -109,15 +111,15 @@ def _digests(requests) -> list[str]:
 
 
 def test_room_beam_0_keeps_the_flat_prompts_byte_for_byte():
-    """The candidates, regeneration and replan requests (prompt and schema) of the code before the
-    expansion, on the tiny scene: their sha256 prefixes were taken from it."""
+    """The candidates, regeneration and replan requests (prompt and schema) of the flat prompt on
+    the tiny scene, pinned by their sha256 prefixes."""
     scene, command = tiny_scene(), tiny_mission().commands[0]
     client = ScriptedClient({"actions": [{"action": "pickup", "furniture": "counter_1", "room": "", "object": "apple_1"}]})
     proposer, plans = propose(client, generate_cfg(room_beam=0))
-    proposer.repair(plans[0], check_plan(plans[0], scene, START), scene, START, command, 2, round_index=0, candidate=0,
-                    known=None, exclude=Exclusions(), context=())
-    proposer.replan(scene, START, command, 2, executed=["navigate(counter_1, kitchen_1)"], failure="pickup failed",
-                    exclude=Exclusions(("apple_1",)), attempt=0, seed=0, context=())
+    proposer.repair(PlanRequest(scene, START, command, 2), plans[0], check_plan(plans[0], scene, START),
+                    round_index=0, candidate=0)
+    proposer.replan(PlanRequest(scene, START, command, 2, exclude=Exclusions(("apple_1",))),
+                    executed=["navigate(counter_1, kitchen_1)"], failure="pickup failed", attempt=0, seed=0)
     assert [r.purpose for r in client.requests] == ["candidates", "candidates", "regeneration", "replan"]
     assert _digests(client.requests) == ["8d6c282c6fa3513a", "c0daf3dbc5f0b895", "4bfe376ffa33927b", "aa995c9d4ca1510c"]
 
@@ -171,10 +173,10 @@ def test_repairs_and_replans_reuse_the_commands_selection():
     client = RoomsThenPlans([["kitchen_1"]])
     proposer, plans = propose(client, generate_cfg())
     ctx = (("command", command.id),)
-    proposer.repair(plans[0], check_plan(plans[0], scene, START), scene, START, command, 2, round_index=0,
-                    candidate=0, known=None, exclude=Exclusions(), context=ctx)
-    proposer.replan(scene, START, command, 1, executed=[], failure="pickup failed", exclude=Exclusions(("apple_1",)),
-                    attempt=0, seed=0, context=ctx)
+    proposer.repair(PlanRequest(scene, START, command, 2, context=ctx), plans[0], check_plan(plans[0], scene, START),
+                    round_index=0, candidate=0)
+    proposer.replan(PlanRequest(scene, START, command, 1, exclude=Exclusions(("apple_1",)), context=ctx),
+                    executed=[], failure="pickup failed", attempt=0, seed=0)
     assert [r.purpose for r in client.requests] == ["rooms_for_candidates", "candidates", "candidates",
                                                     "regeneration", "replan"]
     assert "kitchen_1 (kitchen)" in client.requests[-1].messages[0].content

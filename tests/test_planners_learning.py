@@ -82,7 +82,7 @@ def _run(name: str, fair: bool) -> tuple[dict, ListRecorder]:
     client = FakeScoreClient()
     cands = generate_initial_candidates(scene, m, client, cfg)
     rec = ListRecorder()
-    return run_mission(name, SymbolicWorld(scene, cfg.sim), m, cands, client, cfg, rec).to_dict(), rec
+    return run_mission(name, SymbolicWorld(scene, cfg.sim), m, cands, client, cfg, recorder=rec).to_dict(), rec
 
 
 @pytest.mark.parametrize("fair", [False, True])

@@ -40,7 +40,7 @@ def run(name, cfg=None, hard=(), blocked=(), client=None, cands=None, recorder=N
     client = client or FakeScoreClient()
     cands = cands if cands is not None else generate_initial_candidates(scene, mission, client, cfg)
     world = SymbolicWorld(scene, cfg.sim, hard, blocked)
-    rec = run_mission(name, world, mission, cands, client, cfg, recorder or ListRecorder()).to_dict()
+    rec = run_mission(name, world, mission, cands, client, cfg, recorder=recorder or ListRecorder()).to_dict()
     return rec, world
 
 

@@ -86,7 +86,8 @@ def test_run_log_has_every_llm_call_and_the_per_object_metrics(tiny, tmp_path):
         paths.append(tmp_path / f"run{i}.mcap")
         with McapRecorder(paths[-1], scene, {"seed": 0}, robot=RobotKinematics(cfg.sim)) as rec:
             hook = metric_rows_logger(rec, "inter_llm", scene, mission.id, Gammas.from_config(cfg))
-            record = run_mission("inter_llm", World(scene, cfg.sim), mission, cands, FakeScoreClient(), cfg, rec, hook)
+            record = run_mission("inter_llm", World(scene, cfg.sim), mission, cands, FakeScoreClient(), cfg,
+                                 recorder=rec, on_command_end=hook)
     assert paths[0].read_bytes() == paths[1].read_bytes()  # same inputs, same bytes
     run = read_run(paths[0])
     calls = run.events["/llm/calls"]

@@ -9,6 +9,7 @@ from interllm.planning import expansion, generation, plans, scoring
 from interllm.planning.feasibility import check_plan
 from interllm.planning.memory import KnownCosts
 from interllm.planning.proposers import make_proposer
+from interllm.planning.request import Exclusions, PlanRequest
 
 START = State("dining_table_1", "kitchen_1")
 
@@ -21,7 +22,8 @@ def scores_table():
 
 
 def test_temperature_zero_is_argmax_then_next_best():
-    sels = scoring.sample_selections(scores_table(), tiny_scene(), START, 2, 3, 0.0, np.random.default_rng(0))
+    sels = scoring.sample_selections(scores_table(), tiny_scene(), START, n_objects=2, n_plans=3, temperature=0.0,
+                                     rng=np.random.default_rng(0))
     # summed scores on the dining table: apple+banana 2+3+2.5 = 7.5, apple+mug 6.0, banana+mug 5.5,
     # apple+book 5.4; the best on the counter (apple and banana are on it) is mug+book 1+1+0.4 = 2.4
     assert sels[0] == (("apple_1", "banana_1"), "dining_table_1")
@@ -31,13 +33,15 @@ def test_temperature_zero_is_argmax_then_next_best():
 
 def test_sampling_is_deterministic_by_seed_and_distinct():
     sc, scene = scores_table(), tiny_scene()
-    a = scoring.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(7))
-    b = scoring.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(7))
+    def sample(seed: int):
+        return scoring.sample_selections(sc, scene, START, n_objects=2, n_plans=4, temperature=0.8,
+                                         rng=np.random.default_rng(seed))
+    a, b = sample(7), sample(7)
     assert a == b and len(a) == 4
     assert len({(frozenset(o), t) for o, t in a}) == 4
     for objs, tgt in a:  # never picks an object already on the target
         assert all(scene.objects[o].furniture != tgt for o in objs)
-    others = [scoring.sample_selections(sc, scene, START, 2, 4, 0.8, np.random.default_rng(s)) for s in range(1, 6)]
+    others = [sample(s) for s in range(1, 6)]
     assert any(o != a for o in others)
 
 
@@ -66,10 +70,12 @@ def test_repair_reassembles_from_the_current_scene_and_replaces_bad_choices():
     bad = (Action("pickup", "sofa_1", obj="apple_1"), Action("place", "dining_table_1", obj="apple_1"),
            Action("pickup", "counter_1", obj="pear_9"), Action("place", "dining_table_1", obj="pear_9"))
     assert not check_plan(bad, scene, START).valid
-    fixed = scoring.repair_by_scores(bad, scores_table(), scene, START, 2)
+    command = tiny_mission().commands[0]
+    fixed = scoring.repair_by_scores(bad, scores_table(), PlanRequest(scene, START, command, 2))
     assert check_plan(fixed, scene, START).valid
     assert [a.obj for a in fixed if a.kind == "place"] == ["apple_1", "banana_1"]
-    fixed2 = scoring.repair_by_scores(bad, scores_table(), scene, START, 2, exclude_objects=["apple_1"])
+    fixed2 = scoring.repair_by_scores(bad, scores_table(),
+                                      PlanRequest(scene, START, command, 2, exclude=Exclusions(("apple_1",))))
     assert [a.obj for a in fixed2 if a.kind == "place"] == ["banana_1", "mug_1"]
 
 
@@ -87,8 +93,9 @@ def test_parse_plan_and_schema():
 def test_generate_plans_one_call_per_candidate_with_sample_index():
     ans = {"actions": [{"action": "navigate", "furniture": "counter_1", "room": "kitchen_1", "object": ""}]}
     client = ScriptedClient(ans)
-    plans = generation.generate_plans(client, expansion.flat_view(tiny_scene()), START, tiny_mission().commands[0],
-                                      ExperimentConfig().llm, M=3, n_objects=2)
+    req = PlanRequest(tiny_scene(), START, tiny_mission().commands[0], 2)
+    plans = generation.generate_plans(client, req, ExperimentConfig().llm, view=expansion.flat_view(tiny_scene()),
+                                      n_plans=3)
     assert len(plans) == 3 and [r.options.sample_index for r in client.requests] == [0, 1, 2]
     text = client.requests[0].messages[0].content
     assert text.index('"rooms"') < text.index("Command: Put an apple")  # static part first
@@ -141,10 +148,10 @@ def test_plans_and_cost_labels_take_their_temperatures_separately(monkeypatch):
     assert generation._options(cfg).temperature == 0.9  # a plan request
     assert generation._options(cfg, plan=False).temperature == 0.2  # a cost-inference request: sigma
     seen = []
-    monkeypatch.setattr(scoring, "propose_by_scores", lambda *a, **k: seen.append(a[5]) or [])
+    monkeypatch.setattr(scoring, "propose_by_scores", lambda *a, **k: seen.append(k["temperature"]) or [])
     p = proposers.PLAN_PROPOSERS.get("score")(client=None, cfg=cfg)
     monkeypatch.setattr(p, "scores", lambda *a, **k: None)
-    p.propose(None, None, None, 3, 3, known=None, exclude=proposers.Exclusions(), seed=0, context=())
-    p.replan(None, None, None, 3, executed=(), failure="", exclude=proposers.Exclusions(), attempt=0, seed=0,
-             context=())
+    req = PlanRequest(tiny_scene(), START, tiny_mission().commands[0], 3)
+    p.propose(req, n_plans=3, seed=0)
+    p.replan(req, executed=(), failure="", attempt=0, seed=0)
     assert seen == [0.9, 0.9]

@@ -120,9 +120,11 @@ def _scores():
 def test_candidates_differ_in_objects_where_the_house_allows(temperature):
     scene, state = tiny_scene(), State("counter_1", "kitchen_1", None)
     rng = np.random.default_rng(1)
-    objs = sample_selections(_scores(), scene, state, 2, 3, temperature, rng, diversity="objects")
+    objs = sample_selections(_scores(), scene, state, n_objects=2, n_plans=3, temperature=temperature, rng=rng,
+                             diversity="objects")
     assert len({frozenset(o) for o, _ in objs}) == 3
-    plans = sample_selections(_scores(), scene, state, 2, 3, 0.0, np.random.default_rng(1), diversity="plans")
+    plans = sample_selections(_scores(), scene, state, n_objects=2, n_plans=3, temperature=0.0,
+                              rng=np.random.default_rng(1), diversity="plans")
     assert len({frozenset(o) for o, _ in plans}) < 3  # the earlier sampler repeats the best pair
 
 
@@ -130,7 +132,8 @@ def test_candidates_fall_back_to_other_targets_when_object_sets_run_out():
     scene, state = tiny_scene(), State("counter_1", "kitchen_1", None)
     s = _scores()
     s.floor = -1.0  # only the apple and the banana may be proposed: one object set
-    out = sample_selections(s, scene, state, 2, 3, 0.0, np.random.default_rng(0), diversity="objects")
+    out = sample_selections(s, scene, state, n_objects=2, n_plans=3, temperature=0.0, rng=np.random.default_rng(0),
+                            diversity="objects")
     assert {frozenset(o) for o, _ in out} == {frozenset({"apple_1", "banana_1"})}
     assert len({t for _, t in out}) == 2
 
@@ -150,7 +153,8 @@ def test_the_oracle_proposes_only_relevant_objects_not_on_a_goal_target(caplog):
                                                          cost_inference_mode="oracle"))
     assert s.instances["apple_1"] < s.floor <= s.instances["banana_1"]
     assert "1 relevant object(s)" in caplog.text and "breakfast" in caplog.text
-    out = sample_selections(s, scene, State("counter_1", "kitchen_1", None), 2, 3, 0.8, np.random.default_rng(0))
+    out = sample_selections(s, scene, State("counter_1", "kitchen_1", None), n_objects=2, n_plans=3, temperature=0.8,
+                            rng=np.random.default_rng(0))
     assert out and all(set(o) == {"banana_1"} for o, _ in out)
 
 

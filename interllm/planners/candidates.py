@@ -11,7 +11,8 @@ from interllm.config import ExperimentConfig
 from interllm.core.actions import Plan, State, plan_from_list, plan_to_list
 from interllm.core.seeding import planning_seed
 from interllm.llm.types import LLMClientProtocol
-from interllm.planning.proposers import Exclusions, make_proposer
+from interllm.planning.proposers import make_proposer
+from interllm.planning.request import PlanRequest
 from interllm.scene.graph import Mission, SceneGraph
 
 
@@ -31,8 +32,8 @@ def generate_initial_candidates(scene: SceneGraph, mission: Mission, client: LLM
     out: dict[str, list[list[dict]]] = {}
     for cmd in mission.commands:
         labels = (("stage", "candidates"), ("scene", scene.id), ("mission", mission.id), ("command", cmd.id))
-        plans = proposer.propose(scene, state, cmd, M, int(cmd.goal.n_objects), known=None, exclude=Exclusions(),
-                                 seed=planning_seed(seed_base, "candidates", mission.id, cmd.id), context=labels)
+        plans = proposer.propose(PlanRequest(scene, state, cmd, int(cmd.goal.n_objects), context=labels), n_plans=M,
+                                 seed=planning_seed(seed_base, "candidates", mission.id, cmd.id))
         out[cmd.id] = [plan_to_list(p) for p in plans]
     return out
 

@@ -21,7 +21,8 @@ from interllm.llm.types import LLMRequest, LLMResponse, ScoreRequest, ScoreRespo
 from interllm.planners.world_view import WorldView
 from interllm.planning.costs import encode_cost
 from interllm.planning.memory import KnownCosts
-from interllm.planning.proposers import Exclusions, Proposer, estimate_of, success_rate_of
+from interllm.planning.proposers import Proposer, estimate_of, success_rate_of
+from interllm.planning.request import Exclusions, PlanRequest
 from interllm.scene.graph import Command, Mission
 
 LLM_TOPIC = "/llm/calls"
@@ -121,13 +122,21 @@ class PlannerContext:
     def is_first_command(self, command: Command) -> bool:
         return bool(self.mission.commands) and command.id == self.mission.commands[0].id
 
+    def request(self, command: Command, *, known: KnownCosts | None = None, n_objects: int | None = None,
+                avoid: Exclusions = Exclusions()) -> PlanRequest:
+        """A proposer request for ``command`` in the current scene graph and state: ``n_objects``
+        objects (default: the command's), ``known``: the known costs its prompts may show; it
+        avoids the objects earlier commands delivered and ``avoid``'s objects and targets."""
+        w = self.world
+        n = self.n_objects(command) if n_objects is None else n_objects
+        exclude = Exclusions(tuple(sorted(self.delivered | set(avoid.objects))), avoid.targets)
+        return PlanRequest(w.scene, w.state, command, n, known, exclude, self.labels(command))
+
     def propose_from_state(self, command: Command, known: KnownCosts | None = None) -> list[Plan]:
         """M new candidates from the current scene graph and state, excluding the objects earlier
         commands delivered; ``known``: the known costs the prompts carry (Inter-LLM only)."""
-        w = self.world
-        return self.proposer.plans.propose(w.scene, w.state, command, self.cfg.M, self.n_objects(command),
-                                           known=known, exclude=Exclusions(tuple(sorted(self.delivered))),
-                                           seed=self.seed("propose", command.id), context=self.labels(command))
+        return self.proposer.plans.propose(self.request(command, known=known), n_plans=self.cfg.M,
+                                           seed=self.seed("propose", command.id))
 
     def baseline_candidates(self, command: Command) -> tuple[list[Plan], str]:
         """(candidates, source) of a baseline: the shared initial ones for the first command, and for

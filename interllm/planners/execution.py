@@ -7,6 +7,9 @@ object is not delivered) and execution continues with the next object. If the ro
 the object, it first puts it back on the furniture it came from (recovery actions are executed
 and counted like any other). A planner may pass a ``replanner`` (MoMa-LLM) that returns new
 remaining actions after a failure.
+
+``open_baseline_command`` is the opening SayPlan and MoMa-LLM share: the baseline's candidates,
+logged, and the first one feasible within the repair bound.
 """
 
 from __future__ import annotations
@@ -14,10 +17,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Optional
 
-from interllm.core.actions import Action, Plan, State
+from interllm.core.actions import Action, Plan, State, plan_to_list
 from interllm.core.results import ActionResult
 from interllm.planners.base import CommandResult
 from interllm.planners.context import PlannerContext
+from interllm.planners.repair import first_feasible
 from interllm.planning.feasibility import action_violations
 from interllm.scene.graph import Command, SceneGraph
 from interllm.scene.placement import Placement, placement_of, surface_placement
@@ -128,3 +132,28 @@ def finish(ctx: PlannerContext, result: CommandResult) -> CommandResult:
     result.llm_tokens_in = ctx.tally.tokens_in
     result.llm_tokens_out = ctx.tally.tokens_out
     return result
+
+
+def open_baseline_command(ctx: PlannerContext, command: Command, *, max_rounds: int,
+                          note_no_candidates: bool = False) -> tuple[CommandResult, Optional[Plan]]:
+    """SayPlan's and MoMa-LLM's opening of a command: start it, take the baseline's candidates
+    (``ctx.baseline_candidates``), log them on /planner/candidates and select the first one feasible
+    within ``max_rounds`` repairs (``repair.first_feasible``).
+
+    Returns the command's result (its ``selected_plan`` set) and the selected plan, or None with a
+    note saying why: no candidates at all (that note only with ``note_no_candidates``) or none
+    feasible."""
+    ctx.start_command()
+    result = new_result(command)
+    proposed, source = ctx.baseline_candidates(command)
+    ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
+                                               "source": source})
+    if note_no_candidates and not proposed:
+        result.notes.append(f"no initial candidates for command {command.id!r}")
+        return result, None
+    selected = first_feasible(ctx, command, proposed, max_rounds, result)
+    if selected is None:
+        result.notes.append("no feasible candidate: nothing executed for this command")
+        return result, None
+    result.selected_plan = selected
+    return result, selected

@@ -119,8 +119,9 @@ class InterLLMPlanner:
                                                    "source": "initial" if self._n_commands == 1
                                                    else "reproposed"})
         feasible: list[Plan] = []
+        req = ctx.request(command, known=ctx.memory)
         for j, plan in enumerate(proposed):
-            ok = check_and_repair(ctx, command, plan, j, ctx.cfg.max_regenerations, result, known=ctx.memory)
+            ok = check_and_repair(ctx, req, plan, result, index=j, max_rounds=ctx.cfg.max_regenerations)
             if ok is not None:
                 feasible.append(ok)
         result.candidates = feasible

@@ -19,9 +19,9 @@ from interllm.core.actions import Action, Plan, plan_to_list
 from interllm.core.results import ActionResult
 from interllm.planners.base import PLANNERS, CommandResult
 from interllm.planners.context import PlannerContext
-from interllm.planners.execution import execute_plan, finish, new_result
-from interllm.planners.repair import check_and_repair, first_feasible
-from interllm.planning.proposers import Exclusions
+from interllm.planners.execution import execute_plan, finish, open_baseline_command
+from interllm.planners.repair import check_and_repair
+from interllm.planning.request import Exclusions
 from interllm.scene.graph import Command
 
 
@@ -30,16 +30,9 @@ class MoMaLLMPlanner:
     name = "moma_llm"
 
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
-        ctx.start_command()
-        result = new_result(command)
-        proposed, source = ctx.baseline_candidates(command)
-        ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
-                                                   "source": source})
-        selected = first_feasible(ctx, command, proposed, ctx.cfg.max_regenerations, result)
+        result, selected = open_baseline_command(ctx, command, max_rounds=ctx.cfg.max_regenerations)
         if selected is None:
-            result.notes.append("no feasible candidate: nothing executed for this command")
             return finish(ctx, result)
-        result.selected_plan = selected
         n_total = ctx.n_objects(command)
         failed_objects: set[str] = set()
         failed_targets: set[str] = set()
@@ -58,7 +51,7 @@ class MoMaLLMPlanner:
                 failed_objects.update(o.id for o in world.scene.objects_on(action.furniture))
             result.replans += 1
             remaining = max(n_total - len(delivered), 0)
-            excluded = sorted(set(ctx.delivered) | set(delivered) | failed_objects)
+            avoid = tuple(sorted(set(delivered) | failed_objects))  # ctx.request adds earlier deliveries
             executed = [str(r.action) + (" ok" if r.success else " FAILED") for r in result.actions]
             if remaining == 0:
                 return None
@@ -66,17 +59,16 @@ class MoMaLLMPlanner:
             targets = [a.furniture for a in result.selected_plan if a.kind == "place"]
             keep = targets[-1] if targets and targets[-1] not in failed_targets else None
             ex_t = sorted(f for f in world.scene.furniture if f != keep) if keep else sorted(failed_targets)
-            plan = ctx.proposer.plans.replan(world.scene, world.state, command, remaining, executed=executed,
-                                             failure=text, exclude=Exclusions(tuple(excluded), tuple(ex_t)),
-                                             attempt=result.replans,
-                                             seed=ctx.seed("replan", command.id, result.replans),
-                                             context=ctx.labels(command))
+            req = ctx.request(command, n_objects=remaining, avoid=Exclusions(avoid, tuple(ex_t)))
+            plan = ctx.proposer.plans.replan(req, executed=executed, failure=text, attempt=result.replans,
+                                             seed=ctx.seed("replan", command.id, result.replans))
             ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(plan)],
                                                        "source": f"replan {result.replans}",
                                                        "failure": text})
-            return check_and_repair(ctx, command, plan, 100 + result.replans, ctx.cfg.max_regenerations, result,
-                                    exclude=Exclusions(tuple(excluded), tuple(sorted(failed_targets))),
-                                    n_objects=remaining)
+            # its repairs may deliver to any target but a failed one
+            req = ctx.request(command, n_objects=remaining, avoid=Exclusions(avoid, tuple(sorted(failed_targets))))
+            return check_and_repair(ctx, req, plan, result, index=100 + result.replans,
+                                    max_rounds=ctx.cfg.max_regenerations)
 
         execute_plan(ctx, command, selected, result, replanner)
         return finish(ctx, result)

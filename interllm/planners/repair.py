@@ -15,25 +15,22 @@ from interllm.core.actions import Plan, plan_to_list
 from interllm.planners.base import CommandResult
 from interllm.planners.context import PlannerContext
 from interllm.planning.feasibility import check_plan
-from interllm.planning.memory import KnownCosts
-from interllm.planning.proposers import Exclusions
+from interllm.planning.request import PlanRequest
 from interllm.scene.graph import Command
 
 
-def check_and_repair(ctx: PlannerContext, command: Command, plan: Plan, index: int, max_rounds: int,
-                     result: CommandResult, known: Optional[KnownCosts] = None,
-                     exclude: Exclusions = Exclusions(), n_objects: Optional[int] = None) -> Optional[Plan]:
-    """``plan`` once feasible, repaired at most ``max_rounds`` times; None = dropped at the bound.
+def check_and_repair(ctx: PlannerContext, req: PlanRequest, plan: Plan, result: CommandResult, *, index: int,
+                     max_rounds: int) -> Optional[Plan]:
+    """``plan`` once feasible in ``req``'s scene graph and state, repaired by the proposer for ``req``
+    at most ``max_rounds`` times; None = dropped at the bound.
 
-    index: the candidate's number (for the log and the repair's sampling); known: the costs the
-    proposer may show (Inter-LLM); exclude: objects (besides the delivered ones) and targets a
-    repair must avoid; n_objects: objects the plan should deliver (default: the command's).
+    index: the candidate's number (for the log and the repair's sampling); ``req`` (built by
+    ``ctx.request``) carries what the repairs show and avoid: the known costs (Inter-LLM), the
+    objects and targets to avoid and the number of objects to deliver.
     """
-    scene, state = ctx.world.scene, ctx.world.state
-    n = ctx.n_objects(command) if n_objects is None else n_objects
-    avoid = Exclusions(tuple(sorted(ctx.delivered | set(exclude.objects))), exclude.targets)
+    command = req.command
     for rnd in range(max_rounds + 1):
-        report = check_plan(plan, scene, state)
+        report = check_plan(plan, req.scene, req.state)
         ctx.event("/planner/feasibility", command, {"candidate": index, "round": rnd,
                                                     "plan": plan_to_list(plan), **report.to_dict()})
         if report.valid:
@@ -41,8 +38,7 @@ def check_and_repair(ctx: PlannerContext, command: Command, plan: Plan, index: i
         if rnd == max_rounds:
             break
         result.regenerations += 1
-        plan = ctx.proposer.plans.repair(plan, report, scene, state, command, n, round_index=rnd, candidate=index,
-                                         known=known, exclude=avoid, context=ctx.labels(command))
+        plan = ctx.proposer.plans.repair(req, plan, report, round_index=rnd, candidate=index)
     result.dropped_candidates += 1
     result.notes.append(f"candidate {index} dropped: still infeasible after {max_rounds} regenerations")
     return None
@@ -52,8 +48,9 @@ def first_feasible(ctx: PlannerContext, command: Command, proposed: list[Plan], 
                    result: CommandResult) -> Optional[Plan]:
     """The first candidate that passes the feasibility checker within ``max_rounds`` repairs
     (SayPlan's and MoMa-LLM's selection); logs it on /planner/selected. None if none does."""
+    req = ctx.request(command)
     for j, plan in enumerate(proposed):
-        ok = check_and_repair(ctx, command, plan, j, max_rounds, result)
+        ok = check_and_repair(ctx, req, plan, result, index=j, max_rounds=max_rounds)
         if ok is not None:
             result.candidates = [ok]
             ctx.event("/planner/selected", command, {"index": j, "plan": plan_to_list(ok)})

@@ -21,7 +21,7 @@ CommandHook = Callable[[MissionRecord, float], None]
 
 
 def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_candidates: dict, client: Any,
-                cfg: ExperimentConfig, recorder: Any = None,
+                cfg: ExperimentConfig, *, recorder: Any = None,
                 on_command_end: Optional[CommandHook] = None) -> MissionRecord:
     """One planner on one mission in ``world`` (reset to the mission's start first).
 

@@ -11,11 +11,9 @@ failure (the failed object's remaining actions are skipped, as for every planner
 
 from __future__ import annotations
 
-from interllm.core.actions import plan_to_list
 from interllm.planners.base import PLANNERS, CommandResult
 from interllm.planners.context import PlannerContext
-from interllm.planners.execution import execute_plan, finish, new_result
-from interllm.planners.repair import first_feasible
+from interllm.planners.execution import execute_plan, finish, open_baseline_command
 from interllm.scene.graph import Command
 
 
@@ -24,18 +22,8 @@ class SayPlanPlanner:
     name = "sayplan"
 
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
-        ctx.start_command()
-        result = new_result(command)
-        proposed, source = ctx.baseline_candidates(command)
-        ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
-                                                   "source": source})
-        if not proposed:
-            result.notes.append(f"no initial candidates for command {command.id!r}")
-            return finish(ctx, result)
-        selected = first_feasible(ctx, command, proposed, ctx.cfg.sayplan_max_iterations, result)
-        if selected is None:
-            result.notes.append("no feasible candidate: nothing executed for this command")
-            return finish(ctx, result)
-        result.selected_plan = selected
-        execute_plan(ctx, command, selected, result)
+        result, selected = open_baseline_command(ctx, command, max_rounds=ctx.cfg.sayplan_max_iterations,
+                                                 note_no_candidates=True)
+        if selected is not None:
+            execute_plan(ctx, command, selected, result)
         return finish(ctx, result)

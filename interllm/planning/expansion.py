@@ -35,10 +35,10 @@ from interllm.llm.calllog import SELECTION_PREFIX
 from interllm.llm.client import complete_or_none
 from interllm.llm.prompts import load_template
 from interllm.llm.types import LLMOptions, LLMRequest, Message
-from interllm.planning.memory import KnownCosts
 from interllm.planning.plans import plan_schema_of
+from interllm.planning.request import PlanRequest
 from interllm.planning.text import known_costs_text, scene_json, words
-from interllm.scene.graph import Command, SceneGraph
+from interllm.scene.graph import SceneGraph
 
 FLAT_HEADER = "Scene graph (JSON: rooms > furniture > objects with category and usage):\n"
 ROOMS_HEADER = ("Part of the scene graph: the rooms chosen for this command, their furniture (furniture id: "
@@ -139,23 +139,12 @@ def usable_objects(scene: SceneGraph, rooms: Iterable[str], state: State, exclud
                if o.id not in skip and o.furniture in scene.furniture and scene.furniture[o.furniture].room in chosen)
 
 
-@dataclass(frozen=True)
-class SelectionRequest:
-    """What a selection request is about: the command, the state and known costs it is asked in,
-    and the plan request it serves (``purpose``: candidates | regeneration | replan)."""
-
-    scene: SceneGraph
-    state: State
-    command: Command
-    n_objects: int
-    known: Optional[KnownCosts]
-    purpose: str
-    context: tuple = ()
-
-
-def ask_rooms(client, req: SelectionRequest, cfg: LLMConfig, chosen: Sequence[str], attempt: int) -> tuple[str, ...]:
-    """One selection request: up to ``llm.room_beam`` rooms not in ``chosen`` (``attempt``: 0 for the
-    first selection of a command, k for its k-th widening; it is the request's sample index)."""
+def ask_rooms(client, req: PlanRequest, cfg: LLMConfig, *, purpose: str, chosen: Sequence[str],
+              attempt: int) -> tuple[str, ...]:
+    """One selection request for the plan request ``req`` (``purpose``: the plan request's,
+    candidates | regeneration | replan): up to ``llm.room_beam`` rooms not in ``chosen``
+    (``attempt``: 0 for the first selection of a command, k for its k-th widening; it is the
+    request's sample index)."""
     scene = req.scene
     free = [r for r in sorted(scene.rooms) if r not in set(chosen)]
     if not free:
@@ -169,22 +158,23 @@ def ask_rooms(client, req: SelectionRequest, cfg: LLMConfig, chosen: Sequence[st
     options = LLMOptions(temperature=cfg.plan_sampling_temperature, seed=cfg.seed, top_p=cfg.top_p,
                          max_tokens=cfg.max_tokens, sample_index=attempt)
     resp = complete_or_none(client, LLMRequest(
-        purpose=SELECTION_PREFIX + req.purpose, messages=(Message("user", text),),
+        purpose=SELECTION_PREFIX + purpose, messages=(Message("user", text),),
         schema=selection_schema(free, cfg.room_beam, cfg.constrain_names), options=options, template=tpl.name,
         context=req.context))
     return parse_selection(None if resp is None else resp.parsed, free, cfg.room_beam)
 
 
-def select(client, req: SelectionRequest, cfg: LLMConfig, exclude: Iterable[str] = (),
+def select(client, req: PlanRequest, cfg: LLMConfig, *, purpose: str,
            start: Optional[RoomSelection] = None) -> RoomSelection:
-    """The rooms for ``req``'s command: ``start`` (a selection made earlier for it) or a first
-    selection request, widened while the rooms hold fewer usable objects than the command asks for
-    or none were chosen, at most ``llm.room_widenings`` times (module doc, step 3)."""
-    exclude = tuple(exclude)
-    sel = start or RoomSelection(ask_rooms(client, req, cfg, (), 0))
+    """The rooms for ``req``'s command (``purpose``: the plan request's): ``start`` (a selection
+    made earlier for it) or a first selection request, widened while the rooms hold fewer usable
+    objects (not in ``req.exclude.objects``) than ``req.n_objects`` or none were chosen, at most
+    ``llm.room_widenings`` times (module doc, step 3)."""
+    exclude = req.exclude.objects
+    sel = start or RoomSelection(ask_rooms(client, req, cfg, purpose=purpose, chosen=(), attempt=0))
     while (not sel.rooms or usable_objects(req.scene, sel.rooms, req.state, exclude) < req.n_objects) \
             and sel.widenings < cfg.room_widenings and len(sel.rooms) < len(req.scene.rooms):
-        more = ask_rooms(client, req, cfg, sel.rooms, sel.widenings + 1)
+        more = ask_rooms(client, req, cfg, purpose=purpose, chosen=sel.rooms, attempt=sel.widenings + 1)
         sel = RoomSelection(sel.rooms + more, sel.widenings + 1)
     if not sel.rooms and req.state.at_room in req.scene.rooms:
         sel = RoomSelection((req.state.at_room,), sel.widenings)

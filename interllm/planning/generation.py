@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from typing import Any, Optional
 
 from interllm.config import LLMConfig
-from interllm.core.actions import Action, Plan, State
+from interllm.core.actions import Action, Plan
 from interllm.llm.client import complete_or_none
 from interllm.llm.prompts import load_template
 from interllm.llm.types import LLMOptions, LLMRequest, LLMResponse, Message
@@ -25,6 +25,7 @@ from interllm.planning.expansion import SceneView
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
 from interllm.planning.plans import parse_plan
+from interllm.planning.request import PlanRequest
 from interllm.planning.text import (
     action_placement,
     describe_manipulation,
@@ -32,7 +33,7 @@ from interllm.planning.text import (
     known_manipulations_text,
     plan_text,
 )
-from interllm.scene.graph import Command, SceneGraph
+from interllm.scene.graph import SceneGraph
 
 COST_SCHEMA = {"type": "object", "properties": {"cost": {"type": "string", "enum": list(COST_LABELS)}},
                "required": ["cost"], "additionalProperties": False}
@@ -50,60 +51,58 @@ def _parsed(resp: Optional[LLMResponse]) -> Any:
     return None if resp is None else resp.parsed
 
 
-def _fields(view: SceneView, state: State, command: Command, n_objects: int, known: Optional[KnownCosts]) -> dict:
+def _fields(view: SceneView, req: PlanRequest) -> dict:
     """The fields every plan-writing template shares; ``view``: what it shows of the scene graph."""
-    return {"scene": view.text, "state": state.describe(), "command": command.text, "n_objects": n_objects,
-            "known_costs": known_costs_text(known)}
+    return {"scene": view.text, "state": req.state.describe(), "command": req.command.text,
+            "n_objects": req.n_objects, "known_costs": known_costs_text(req.known)}
 
 
-def generate_plans(client, view: SceneView, state: State, command: Command, cfg: LLMConfig, *, M: int,
-                   n_objects: int, known: Optional[KnownCosts] = None, context: tuple = ()) -> list[Plan]:
-    """``M`` plans written by the LLM over ``view``, one call per plan (sample_index j)."""
+def generate_plans(client, req: PlanRequest, cfg: LLMConfig, *, view: SceneView, n_plans: int) -> list[Plan]:
+    """``n_plans`` plans for ``req`` written by the LLM over ``view``, one call per plan (sample_index j)."""
     tpl = load_template("candidates")
     schema = view.schema(cfg.constrain_names)
     plans: list[Plan] = []
-    for j in range(M):
+    for j in range(n_plans):
         prev = ""
         if plans:
             prev = "\nPlans already proposed (write a different one):\n" + "\n".join(
                 f"Plan {k + 1}: " + "; ".join(str(a) for a in p) for k, p in enumerate(plans)) + "\n"
-        text = tpl.render(previous=prev, **_fields(view, state, command, n_objects, known))
+        text = tpl.render(previous=prev, **_fields(view, req))
         resp = complete_or_none(client, LLMRequest(purpose="candidates", messages=(Message("user", text),),
                                                    schema=schema, options=_options(cfg, j), template=tpl.name,
-                                                   context=context))
+                                                   context=req.context))
         plans.append(parse_plan(_parsed(resp)))
     return plans
 
 
-def regenerate_plan_llm(client, view: SceneView, state: State, command: Command, cfg: LLMConfig, *, plan: Plan,
-                        report: FeasibilityReport, n_objects: int, attempt: int, sample_index: int = 0,
-                        known: Optional[KnownCosts] = None, context: tuple = ()) -> Plan:
-    """``plan`` rewritten by the LLM after the feasibility checker's ``report`` (round ``attempt`` of
-    candidate ``sample_index``)."""
+def regenerate_plan_llm(client, req: PlanRequest, cfg: LLMConfig, *, view: SceneView, plan: Plan,
+                        report: FeasibilityReport, attempt: int, sample_index: int = 0) -> Plan:
+    """``plan`` rewritten by the LLM over ``view`` after the feasibility checker's ``report`` (round
+    ``attempt`` of candidate ``sample_index``)."""
     tpl = load_template("regeneration")
-    text = tpl.render(plan=plan_text(plan), feedback=report.feedback() or "(none)",
-                      **_fields(view, state, command, n_objects, known))
+    text = tpl.render(plan=plan_text(plan), feedback=report.feedback() or "(none)", **_fields(view, req))
     resp = complete_or_none(client, LLMRequest(
         purpose="regeneration", messages=(Message("user", text),), schema=view.schema(cfg.constrain_names),
-        options=_options(cfg, sample_index * 100 + attempt + 1), template=tpl.name, context=context))
+        options=_options(cfg, sample_index * 100 + attempt + 1), template=tpl.name, context=req.context))
     return parse_plan(_parsed(resp))
 
 
-def replan_llm(client, view: SceneView, state: State, command: Command, cfg: LLMConfig, *,
-               executed: Sequence[str], failure: str, n_objects: int, excluded: Sequence[str], attempt: int,
-               context: tuple = ()) -> Plan:
-    """The rest of ``command`` written by the LLM after an execution failure (``failure``: its text)."""
+def replan_llm(client, req: PlanRequest, cfg: LLMConfig, *, view: SceneView, executed: Sequence[str], failure: str,
+               attempt: int) -> Plan:
+    """The rest of ``req.command`` written by the LLM over ``view`` after an execution failure
+    (``failure``: its text; ``req.exclude.objects``: the objects it lists as excluded; no known costs
+    are shown)."""
     tpl = load_template("replan")
-    text = tpl.render(scene=view.text, state=state.describe(), command=command.text,
+    text = tpl.render(scene=view.text, state=req.state.describe(), command=req.command.text,
                       executed="\n".join(executed) or "(nothing)", failure=failure,
-                      excluded=", ".join(excluded) or "(none)", n_objects=n_objects)
+                      excluded=", ".join(req.exclude.objects) or "(none)", n_objects=req.n_objects)
     resp = complete_or_none(client, LLMRequest(
         purpose="replan", messages=(Message("user", text),), schema=view.schema(cfg.constrain_names),
-        options=_options(cfg, attempt), template=tpl.name, context=context))
+        options=_options(cfg, attempt), template=tpl.name, context=req.context))
     return parse_plan(_parsed(resp))
 
 
-def infer_cost_by_generation(client, action: Action, scene: SceneGraph, known: KnownCosts, cfg: LLMConfig,
+def infer_cost_by_generation(client, action: Action, scene: SceneGraph, known: KnownCosts, cfg: LLMConfig, *,
                              context: tuple = ()) -> str:
     """ĉ^text(a_man) in {easy, medium, hard, unknown}, written by the LLM under COST_SCHEMA. With no
     measured manipulation yet there is nothing to compare with: "unknown" without an LLM call."""

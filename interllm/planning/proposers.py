@@ -3,7 +3,9 @@ implementation per LLM mode, built once from the LLM config (``make_proposer``).
 and never branch on the mode.
 
 - :class:`PlanProposer` — ``propose`` M candidates for a command, ``repair`` a plan the
-  feasibility checker rejected, ``replan`` the rest of a command after an execution failure.
+  feasibility checker rejected, ``replan`` the rest of a command after an execution failure. Each
+  takes a :class:`~interllm.planning.request.PlanRequest` (scene graph, state, command, how many
+  objects, known costs, exclusions, call-log labels) and, as keywords, what differs per call.
   ``generate`` mode: :class:`GeneratePlans` (the LLM writes the plans; see
   ``planning.generation``); ``score`` mode: :class:`ScorePlans` (the LLM ranks objects and
   targets, plans are sampled and assembled; see ``planning.scoring``); ``oracle`` mode:
@@ -21,45 +23,36 @@ then selects it.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Optional, Protocol
 
 from interllm.config import LLMConfig
-from interllm.core.actions import Action, Plan, State
+from interllm.core.actions import Action, Plan
 from interllm.llm.types import LLMClientProtocol
 from interllm.planning import expansion, generation, oracle, scoring
 from interllm.planning.costs import decode_cost
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
+from interllm.planning.request import PlanRequest
 from interllm.registry import Registry
-from interllm.scene.graph import Command, SceneGraph
-
-
-@dataclass(frozen=True)
-class Exclusions:
-    """Objects a plan must not take and furniture it must not deliver to (sorted ids)."""
-
-    objects: tuple[str, ...] = ()
-    targets: tuple[str, ...] = ()
+from interllm.scene.graph import SceneGraph
 
 
 class PlanProposer(Protocol):
-    """Plan candidates from the LLM; ``context`` are the call-log labels of the calls."""
+    """Plan candidates from the LLM for a :class:`~interllm.planning.request.PlanRequest` (its
+    ``context``: the call-log labels of the calls)."""
 
-    def propose(self, scene: SceneGraph, state: State, command: Command, n_plans: int, n_objects: int, *,
-                known: Optional[KnownCosts], exclude: Exclusions, seed: int, context: tuple) -> list[Plan]:
-        """Up to ``n_plans`` candidates delivering ``n_objects`` objects for ``command``."""
+    def propose(self, req: PlanRequest, *, n_plans: int, seed: int) -> list[Plan]:
+        """Up to ``n_plans`` candidates delivering ``req.n_objects`` objects for ``req.command``."""
 
-    def repair(self, plan: Plan, report: FeasibilityReport, scene: SceneGraph, state: State, command: Command,
-               n_objects: int, *, round_index: int, candidate: int, known: Optional[KnownCosts],
-               exclude: Exclusions, context: tuple) -> Plan:
+    def repair(self, req: PlanRequest, plan: Plan, report: FeasibilityReport, *, round_index: int,
+               candidate: int) -> Plan:
         """A new version of ``plan`` after the feasibility checker's ``report`` (round ``round_index``
         of candidate ``candidate``)."""
 
-    def replan(self, scene: SceneGraph, state: State, command: Command, n_objects: int, *,
-               executed: Sequence[str], failure: str, exclude: Exclusions, attempt: int, seed: int,
-               context: tuple) -> Plan:
-        """The rest of ``command`` after an execution failure (``failure``: its text)."""
+    def replan(self, req: PlanRequest, *, executed: Sequence[str], failure: str, attempt: int, seed: int) -> Plan:
+        """The rest of ``req.command`` after an execution failure (``failure``: its text;
+        ``executed``: the actions run so far, as text); a replan shows no known costs."""
 
 
 class CostInferrer(Protocol):
@@ -99,36 +92,31 @@ class GeneratePlans:
         self.client, self.cfg = client, cfg
         self._selections: dict[tuple, expansion.RoomSelection] = {}
 
-    def view(self, request: expansion.SelectionRequest, exclude: Sequence[str]) -> expansion.SceneView:
-        """What ``request``'s plan request shows: the whole scene graph (``llm.room_beam`` = 0), or the
-        command's selected rooms, selected or widened now if needed."""
-        scene = request.scene
+    def view(self, req: PlanRequest, purpose: str) -> expansion.SceneView:
+        """What ``req``'s plan request (``purpose``: candidates | regeneration | replan) shows: the
+        whole scene graph (``llm.room_beam`` = 0), or the command's selected rooms, selected or
+        widened now if needed."""
+        scene = req.scene
         if not self.cfg.room_beam:
             return expansion.flat_view(scene)
-        key = (scene.id, request.command.id, tuple(sorted(request.context)))
-        sel = expansion.select(self.client, request, self.cfg, exclude, self._selections.get(key))
+        key = (scene.id, req.command.id, tuple(sorted(req.context)))
+        sel = expansion.select(self.client, req, self.cfg, purpose=purpose, start=self._selections.get(key))
         self._selections[key] = sel
-        return expansion.rooms_view(scene, sel.rooms, request.state.holding)
+        return expansion.rooms_view(scene, sel.rooms, req.state.holding)
 
-    def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
-        view = self.view(expansion.SelectionRequest(scene, state, command, n_objects, known, "candidates", context),
-                         exclude.objects)
-        return generation.generate_plans(self.client, view, state, command, self.cfg, M=n_plans, n_objects=n_objects,
-                                         known=known, context=context)
+    def propose(self, req, *, n_plans, seed):
+        return generation.generate_plans(self.client, req, self.cfg, view=self.view(req, "candidates"),
+                                         n_plans=n_plans)
 
-    def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
-               context):
-        view = self.view(expansion.SelectionRequest(scene, state, command, n_objects, known, "regeneration", context),
-                         exclude.objects)
-        return generation.regenerate_plan_llm(self.client, view, state, command, self.cfg, plan=plan, report=report,
-                                              n_objects=n_objects, attempt=round_index, sample_index=candidate,
-                                              known=known, context=context)
+    def repair(self, req, plan, report, *, round_index, candidate):
+        return generation.regenerate_plan_llm(self.client, req, self.cfg, view=self.view(req, "regeneration"),
+                                              plan=plan, report=report, attempt=round_index,
+                                              sample_index=candidate)
 
-    def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
-        view = self.view(expansion.SelectionRequest(scene, state, command, n_objects, None, "replan", context),
-                         exclude.objects)
-        return generation.replan_llm(self.client, view, state, command, self.cfg, executed=executed, failure=failure,
-                                     n_objects=n_objects, excluded=exclude.objects, attempt=attempt, context=context)
+    def replan(self, req, *, executed, failure, attempt, seed):
+        req = replace(req, known=None)
+        return generation.replan_llm(self.client, req, self.cfg, view=self.view(req, "replan"), executed=executed,
+                                     failure=failure, attempt=attempt)
 
 
 @PLAN_PROPOSERS.register("score")
@@ -140,27 +128,26 @@ class ScorePlans:
         self.client, self.cfg = client, cfg
         self._scores: dict[tuple, scoring.SemanticScores] = {}
 
-    def scores(self, scene: SceneGraph, command: Command, known: Optional[KnownCosts],
-               context: tuple) -> scoring.SemanticScores:
-        key = (command.id, known is not None, len(known) if known else 0)
+    def scores(self, req: PlanRequest) -> scoring.SemanticScores:
+        """The scores of ``req``'s command with its known costs shown."""
+        known = req.known
+        key = (req.command.id, known is not None, len(known) if known else 0)
         if key not in self._scores:
-            self._scores[key] = scoring.score_command(self.client, scene, command, self.cfg, known, context)
+            self._scores[key] = scoring.score_command(self.client, req.scene, req.command, self.cfg, known=known,
+                                                      context=req.context)
         return self._scores[key]
 
-    def propose(self, scene, state, command, n_plans, n_objects, *, known, exclude, seed, context):
-        return scoring.propose_by_scores(self.scores(scene, command, known, context), scene, state, n_objects,
-                                         n_plans, self.cfg.plan_sampling_temperature, seed, exclude.objects,
-                                         exclude.targets, self.cfg.candidate_diversity)
+    def propose(self, req, *, n_plans, seed):
+        return scoring.propose_by_scores(self.scores(req), req, n_plans=n_plans,
+                                         temperature=self.cfg.plan_sampling_temperature, seed=seed,
+                                         diversity=self.cfg.candidate_diversity)
 
-    def repair(self, plan, report, scene, state, command, n_objects, *, round_index, candidate, known, exclude,
-               context):
-        return scoring.repair_by_scores(plan, self.scores(scene, command, known, context), scene, state, n_objects,
-                                        exclude.objects, exclude.targets)
+    def repair(self, req, plan, report, *, round_index, candidate):
+        return scoring.repair_by_scores(plan, self.scores(req), req)
 
-    def replan(self, scene, state, command, n_objects, *, executed, failure, exclude, attempt, seed, context):
-        plans = scoring.propose_by_scores(self.scores(scene, command, None, context), scene, state, n_objects, 1,
-                                          self.cfg.plan_sampling_temperature, seed, exclude.objects,
-                                          exclude.targets)
+    def replan(self, req, *, executed, failure, attempt, seed):
+        plans = scoring.propose_by_scores(self.scores(replace(req, known=None)), req, n_plans=1,
+                                          temperature=self.cfg.plan_sampling_temperature, seed=seed)
         return plans[0] if plans else ()
 
 
@@ -170,7 +157,7 @@ class GenerateCosts:
         self.client, self.cfg = client, cfg
 
     def infer(self, action, scene, known, *, seed_parts, context):
-        return generation.infer_cost_by_generation(self.client, action, scene, known, self.cfg, context)
+        return generation.infer_cost_by_generation(self.client, action, scene, known, self.cfg, context=context)
 
 
 @COST_INFERRERS.register("score")
@@ -179,18 +166,19 @@ class ScoreCosts:
         self.client, self.cfg = client, cfg
 
     def infer(self, action, scene, known, *, seed_parts, context):
-        return scoring.infer_cost_by_scores(self.client, action, scene, known, self.cfg, seed_parts, context)
+        return scoring.infer_cost_by_scores(self.client, action, scene, known, self.cfg, seed_parts=seed_parts,
+                                            context=context)
 
 
 @PLAN_PROPOSERS.register("oracle")
 class OraclePlans(ScorePlans):
     """Score-mode proposals over the oracle's ground-truth scores (``planning.oracle``); no LLM call."""
 
-    def scores(self, scene: SceneGraph, command: Command, known: Optional[KnownCosts],
-               context: tuple) -> scoring.SemanticScores:
-        key = (scene.id, command.id, oracle.where(context))
+    def scores(self, req: PlanRequest) -> scoring.SemanticScores:
+        """The oracle's scores of ``req``'s command (known costs play no part)."""
+        key = (req.scene.id, req.command.id, oracle.where(req.context))
         if key not in self._scores:
-            self._scores[key] = oracle.oracle_scores(scene, command, self.cfg, context)
+            self._scores[key] = oracle.oracle_scores(req.scene, req.command, self.cfg, req.context)
         return self._scores[key]
 
 

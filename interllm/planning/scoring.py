@@ -44,6 +44,7 @@ from interllm.llm.types import ScoreRequest
 from interllm.planning.costs import COST_LABELS
 from interllm.planning.memory import KnownCosts
 from interllm.planning.plans import assemble_plan
+from interllm.planning.request import Exclusions, PlanRequest
 from interllm.planning.text import (
     action_placement,
     describe_manipulation,
@@ -88,12 +89,13 @@ SCORE_MODES = {"score_objects": "cal", "score_instances": "half", "score_target"
                "score_target_room": "half", "score_source_room": "half", "score_cost": "half"}
 
 
-def _score(client, purpose: str, tpl, fields: dict, continuations: Sequence[str], calibrate: bool,
-           context: tuple, cal_field: str, cal_value: str) -> list[float]:
-    """Scores of the continuations, combined per ``SCORE_MODES[purpose]`` (see above)."""
+def _score(client, purpose: str, tpl, fields: dict, continuations: Sequence[str], *, calibrate: bool,
+           context: tuple, cal_field: str = "command") -> list[float]:
+    """Scores of the continuations, combined per ``SCORE_MODES[purpose]`` (see above); the
+    content-free prompt has ``CALIBRATION_COMMAND`` in the field ``cal_field``."""
     mode = SCORE_MODES.get(purpose, "half") if calibrate else "raw"
     prompt = tpl.render(**fields).rstrip("\n")
-    cal = tpl.render(**{**fields, cal_field: cal_value}).rstrip("\n") if mode != "raw" else None
+    cal = tpl.render(**{**fields, cal_field: CALIBRATION_COMMAND}).rstrip("\n") if mode != "raw" else None
     resp = client.score(ScoreRequest(purpose=purpose, prompt=prompt, continuations=tuple(continuations),
                                      calibration_prompt=cal, template=tpl.name, context=context))
     if mode == "half":
@@ -108,7 +110,7 @@ def _score(client, purpose: str, tpl, fields: dict, continuations: Sequence[str]
     return scores
 
 
-def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig,
+def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig, *,
                   known: Optional[KnownCosts] = None, context: tuple = ()) -> SemanticScores:
     """Score categories, instances and target furniture of ``scene`` for ``command.text``.
 
@@ -124,20 +126,19 @@ def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig,
     tpl_o = load_template("score_objects")
     base = {"known_costs": kc, "command": command.text}
     cat_scores = _score(client, "score_objects", tpl_o, {**base, "query": "Useful item:"},
-                        [f" {words(c)}" for c in cats], cfg.calibrate, context,
-                        "command", CALIBRATION_COMMAND)
+                        [f" {words(c)}" for c in cats], calibrate=cfg.calibrate, context=context)
     categories = dict(zip(cats, cat_scores, strict=True))
-    instances = _score_instances(client, scene, cfg, categories, base, context)
+    instances = _score_instances(client, scene, cfg, categories=categories, base=base, context=context)
     fcats = sorted({f.category for f in scene.furniture.values()})
     rtypes = sorted({r.type for r in scene.rooms.values()})
     fsc = dict(zip(fcats, _score(client, "score_target", load_template("score_target"),
                                  {**base, "query": "Put them on the:"},
-                                 [f" {words(c)}" for c in fcats], cfg.calibrate, context,
-                                 "command", CALIBRATION_COMMAND), strict=True))
+                                 [f" {words(c)}" for c in fcats], calibrate=cfg.calibrate, context=context),
+                   strict=True))
     rsc = dict(zip(rtypes, _score(client, "score_target_room", load_template("score_room"),
                                   {**base, "query": "Room:"},
-                                  [f" {words(r)}" for r in rtypes], cfg.calibrate, context,
-                                  "command", CALIBRATION_COMMAND), strict=True))
+                                  [f" {words(r)}" for r in rtypes], calibrate=cfg.calibrate, context=context),
+                   strict=True))
     targets = {f.id: fsc[f.category] + rsc[scene.rooms[f.room].type] for f in scene.furniture.values()}
     return SemanticScores(categories, instances, dict(sorted(targets.items())))
 
@@ -161,7 +162,7 @@ def expanded_objects(scene: SceneGraph, categories: dict[str, float], room_types
     return sorted(o.id for f in kept for o in by_furniture[f])
 
 
-def _score_instances(client, scene: SceneGraph, cfg: LLMConfig, categories: dict[str, float], base: dict,
+def _score_instances(client, scene: SceneGraph, cfg: LLMConfig, *, categories: dict[str, float], base: dict,
                      context: tuple) -> dict[str, float]:
     """Instance scores (module doc, step 2): room types, then the phrases of the expanded objects."""
     def room_type(oid: str) -> str:
@@ -170,16 +171,15 @@ def _score_instances(client, scene: SceneGraph, cfg: LLMConfig, categories: dict
     rtypes = sorted({room_type(o) for o in scene.objects})
     if cfg.room_beam or cfg.furniture_beam:
         rsc = _score(client, "score_source_room", load_template("score_source_room"),
-                     {**base, "query": "Useful items are in the:"}, [f" {words(r)}" for r in rtypes], cfg.calibrate,
-                     context, "command", CALIBRATION_COMMAND)
+                     {**base, "query": "Useful items are in the:"}, [f" {words(r)}" for r in rtypes],
+                     calibrate=cfg.calibrate, context=context)
         room_types = dict(zip(rtypes, rsc, strict=True))
     else:
         room_types = {r: 0.0 for r in rtypes}
     expanded = expanded_objects(scene, categories, room_types, cfg.room_beam, cfg.furniture_beam)
     inst = _score(client, "score_instances", load_template("score_objects"),
                   {**base, "query": "Useful item and where it is:"},
-                  [_instance_phrase(scene, o) for o in expanded], cfg.calibrate, context,
-                  "command", CALIBRATION_COMMAND)
+                  [_instance_phrase(scene, o) for o in expanded], calibrate=cfg.calibrate, context=context)
     phrase = dict(zip(expanded, inst, strict=True))
     return {o: categories[scene.objects[o].category] + phrase.get(o, room_types[room_type(o)] - OUT_OF_BEAM)
             for o in sorted(scene.objects)}
@@ -195,35 +195,35 @@ def _eligible_objects(scene: SceneGraph, state: State, target: str, exclude: set
             and (floor is None or scores.instances.get(o, -1e9) >= floor)]
 
 
-def sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, n_objects: int, M: int,
-                      temperature: float, rng: np.random.Generator, exclude_objects: Sequence[str] = (),
-                      exclude_targets: Sequence[str] = (), diversity: str = "plans"
-                      ) -> list[tuple[tuple[str, ...], str]]:
-    """Up to ``M`` distinct (ordered objects, target) selections; see the module docstring.
+def sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, *, n_objects: int, n_plans: int,
+                      temperature: float, rng: np.random.Generator, exclude: Exclusions = Exclusions(),
+                      diversity: str = "plans") -> list[tuple[tuple[str, ...], str]]:
+    """Up to ``n_plans`` distinct (ordered objects, target) selections of ``n_objects`` objects in
+    ``scene`` from ``state``, avoiding ``exclude``; see the module docstring.
 
     diversity: "plans": selections differ in (object set, target); "objects": first selections that
-    differ in their object sets, then, if the house offers fewer than M such sets, ones that differ
+    differ in their object sets, then, if the house offers fewer than n_plans such sets, ones that differ
     in the target only (``llm.candidate_diversity``)."""
     if diversity == "objects":
-        first = _sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
-                                   exclude_targets, by_objects=True)
-        if len(first) < M:
+        first = _sample_selections(scores, scene, state, n_objects=n_objects, n_plans=n_plans,
+                                   temperature=temperature, rng=rng, exclude=exclude, by_objects=True)
+        if len(first) < n_plans:
             seen = {(frozenset(o), t) for o, t in first}
-            more = _sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
-                                      exclude_targets, by_objects=False)
-            first += [(o, t) for o, t in more if (frozenset(o), t) not in seen][:M - len(first)]
+            more = _sample_selections(scores, scene, state, n_objects=n_objects, n_plans=n_plans,
+                                      temperature=temperature, rng=rng, exclude=exclude, by_objects=False)
+            first += [(o, t) for o, t in more if (frozenset(o), t) not in seen][:n_plans - len(first)]
         return first
-    return _sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
-                              exclude_targets, by_objects=False)
+    return _sample_selections(scores, scene, state, n_objects=n_objects, n_plans=n_plans, temperature=temperature,
+                              rng=rng, exclude=exclude, by_objects=False)
 
 
-def _sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, n_objects: int, M: int,
-                       temperature: float, rng: np.random.Generator, exclude_objects: Sequence[str],
-                       exclude_targets: Sequence[str], by_objects: bool) -> list[tuple[tuple[str, ...], str]]:
+def _sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, *, n_objects: int, n_plans: int,
+                       temperature: float, rng: np.random.Generator, exclude: Exclusions,
+                       by_objects: bool) -> list[tuple[tuple[str, ...], str]]:
     """``sample_selections`` with one notion of distinct: by object set alone (``by_objects``) or by
     (object set, target)."""
-    excl = set(exclude_objects)
-    targets = [f for f in sorted(scores.targets) if f in scene.furniture and f not in set(exclude_targets)]
+    excl = set(exclude.objects)
+    targets = [f for f in sorted(scores.targets) if f in scene.furniture and f not in set(exclude.targets)]
     above = [f for f in targets if scores.floor is None or scores.targets[f] >= scores.floor]
     targets = above or targets  # every answered target excluded: the others stay possible
     if not targets:
@@ -237,7 +237,7 @@ def _sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, 
         key = frozenset(objs) if by_objects else (frozenset(objs), tgt)
         if n and not objs:  # nothing left to take to this target
             return
-        if key not in seen and len(out) < M:
+        if key not in seen and len(out) < n_plans:
             seen.add(key)
             out.append((objs, tgt))
 
@@ -249,8 +249,8 @@ def _sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, 
         t_logit = np.array([scores.targets[f] for f in targets]) / temperature
         p = np.exp(t_logit - t_logit.max())
         p /= p.sum()
-        for _ in range(50 * M):
-            if len(out) >= M:
+        for _ in range(50 * n_plans):
+            if len(out) >= n_plans:
                 break
             tgt = targets[int(rng.choice(len(targets), p=p))]
             el = _eligible_objects(scene, state, tgt, excl, scores)
@@ -258,13 +258,13 @@ def _sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, 
             keys = keys + rng.gumbel(size=len(el))
             order = np.argsort(-keys, kind="stable")[:n]
             add(tuple(el[i] for i in order), tgt)
-    if len(out) < M:
+    if len(out) < n_plans:
         # deterministic: best combinations by summed score (argmax first, then next best)
-        t_sorted = sorted(targets, key=lambda f: (-scores.targets[f], f))[:M]
+        t_sorted = sorted(targets, key=lambda f: (-scores.targets[f], f))[:n_plans]
         combos = []
         for tgt in t_sorted:
             r = ranked(tgt)
-            pool = r[:min(len(r), n + min(M - 1, 4))]
+            pool = r[:min(len(r), n + min(n_plans - 1, 4))]
             for comb in itertools.combinations(pool, min(n, len(pool))):
                 objs = tuple(sorted(comb, key=lambda o: (-scores.instances.get(o, -1e9), o)))
                 total = scores.targets[tgt] + sum(scores.instances.get(o, -1e9) for o in objs)
@@ -274,26 +274,27 @@ def _sample_selections(scores: SemanticScores, scene: SceneGraph, state: State, 
     return out
 
 
-def propose_by_scores(scores: SemanticScores, scene: SceneGraph, state: State, n_objects: int, M: int,
-                      temperature: float, seed: int, exclude_objects: Sequence[str] = (),
-                      exclude_targets: Sequence[str] = (), diversity: str = "plans") -> list[Plan]:
+def propose_by_scores(scores: SemanticScores, req: PlanRequest, *, n_plans: int, temperature: float, seed: int,
+                      diversity: str = "plans") -> list[Plan]:
+    """Up to ``n_plans`` plans for ``req`` sampled from ``scores`` (``sample_selections``, a numpy
+    Generator seeded with ``seed``) and assembled from its scene graph and state."""
     rng = np.random.default_rng(seed)
-    sels = sample_selections(scores, scene, state, n_objects, M, temperature, rng, exclude_objects,
-                             exclude_targets, diversity)
-    return [assemble_plan(scene, state, objs, tgt) for objs, tgt in sels]
+    sels = sample_selections(scores, req.scene, req.state, n_objects=req.n_objects, n_plans=n_plans,
+                             temperature=temperature, rng=rng, exclude=req.exclude, diversity=diversity)
+    return [assemble_plan(req.scene, req.state, objs, tgt) for objs, tgt in sels]
 
 
-def repair_by_scores(plan: Plan, scores: SemanticScores, scene: SceneGraph, state: State, n_objects: int,
-                     exclude_objects: Sequence[str] = (), exclude_targets: Sequence[str] = ()) -> Plan:
-    """Score-mode regeneration: re-assemble the plan's deliveries from the current scene graph,
+def repair_by_scores(plan: Plan, scores: SemanticScores, req: PlanRequest) -> Plan:
+    """Score-mode regeneration: re-assemble the plan's deliveries from ``req``'s scene graph,
     replacing infeasible choices with the next best remaining ones."""
-    excl = set(exclude_objects)
+    scene, state, n_objects = req.scene, req.state, req.n_objects
+    excl = set(req.exclude.objects)
     targets = [a.furniture for a in plan if a.kind == "place" and a.furniture in scene.furniture
-               and a.furniture not in set(exclude_targets)]
+               and a.furniture not in set(req.exclude.targets)]
     if targets:
         target = targets[-1]
     else:
-        cands = [f for f in scores.targets if f in scene.furniture and f not in set(exclude_targets)]
+        cands = [f for f in scores.targets if f in scene.furniture and f not in set(req.exclude.targets)]
         if not cands:
             raise ValueError("no target furniture left to repair the plan with")
         target = min(cands, key=lambda f: (-scores.targets[f], f))
@@ -312,7 +313,7 @@ def repair_by_scores(plan: Plan, scores: SemanticScores, scene: SceneGraph, stat
     return assemble_plan(scene, state, objs, target)
 
 
-def infer_cost_by_scores(client, action: Action, scene: SceneGraph, known: KnownCosts, cfg: LLMConfig,
+def infer_cost_by_scores(client, action: Action, scene: SceneGraph, known: KnownCosts, cfg: LLMConfig, *,
                          seed_parts: Sequence[Any] = (), context: tuple = ()) -> str:
     """ĉ^text(a_man) in {easy, medium, hard, unknown} by scoring the four labels and sampling one
     at the temperature. With no measured manipulation yet there is nothing to compare with:
@@ -323,8 +324,7 @@ def infer_cost_by_scores(client, action: Action, scene: SceneGraph, known: Known
     desc = describe_manipulation(action, scene, action_placement(action, scene) if cfg.placement_attributes else None)
     tpl = load_template("score_cost")
     scores = _score(client, "score_cost", tpl, {"known": known_text, "action": desc},
-                    [f" {c}" for c in COST_LABELS], cfg.calibrate, context, "action",
-                    CALIBRATION_COMMAND)
+                    [f" {c}" for c in COST_LABELS], calibrate=cfg.calibrate, context=context, cal_field="action")
     return sample_label(scores, cfg.temperature,
                         planning_seed(cfg.seed, "cost_inference", *seed_parts, str(action)))
 

@@ -72,7 +72,8 @@ class MissionWorker:
         world = self._worlds[sid]
         with McapRecorder(d / f"{mission_id}.mcap", scene, meta, grids=grids, robot=self.robot) as rec:
             hook = metric_rows_logger(rec, planner, scene, mission_id, self.gammas)
-            record = run_mission(planner, world, mission, cands[mission_id], self.client, self.cfg, rec, hook)
+            record = run_mission(planner, world, mission, cands[mission_id], self.client, self.cfg, recorder=rec,
+                                 on_command_end=hook)
         write_json(d / f"{mission_id}.json", record.to_dict())
 
 
@@ -134,14 +135,17 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     call_log = out_dir / "llm_calls.jsonl"
     for f in (call_log, *out_dir.glob(".llm_calls.worker*.jsonl")):  # whatever a killed run left here
         f.unlink(missing_ok=True)
+    files = {"scenes_dir": scenes_dir, "candidates_dir": candidates_dir, "out_dir": out_dir, "prov": prov,
+             "call_log": call_log}
     if n_workers <= 1:
-        _run_in_process(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs)
+        _run_in_process(cfg, jobs, **files)
     else:
-        _run_in_workers(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs, n_workers)
+        _run_in_workers(cfg, jobs, n_workers=n_workers, **files)
     check_failure_share(call_log, cfg.llm, "missions stage")
 
 
-def _run_in_process(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs: list[Job]) -> None:
+def _run_in_process(cfg: ExperimentConfig, jobs: list[Job], *, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
+                    prov: dict, call_log: Path) -> None:
     worker = MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log)
     try:
         for job in progress(jobs, "missions", total=len(jobs)):
@@ -157,8 +161,8 @@ def _run_in_process(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jo
         worker.client.close()
 
 
-def _run_in_workers(cfg, scenes_dir, candidates_dir, out_dir, prov, call_log, jobs: list[Job],
-                    n_workers: int) -> None:
+def _run_in_workers(cfg: ExperimentConfig, jobs: list[Job], *, n_workers: int, scenes_dir: Path, candidates_dir: Path,
+                    out_dir: Path, prov: dict, call_log: Path) -> None:
     # each worker's model gets its share of the LLM threads (llama.cpp's results do not depend on
     # the thread count; oversubscribed threads only spin)
     wcfg = dataclasses.replace(cfg, llm=dataclasses.replace(cfg.llm, n_threads=max(1, cfg.llm.n_threads // n_workers)))
