@@ -76,7 +76,7 @@ def build_speed(n_gen: int = 64) -> dict:
     check, so a native build can be measured), one thread, greedy decoding."""
     import llama_cpp
 
-    from interllm.llm.embedded import assemble_packaged_model
+    from interllm.llm.model_files import assemble_packaged_model
 
     llm = llama_cpp.Llama(model_path=str(assemble_packaged_model()), n_ctx=2048, n_threads=1,
                           n_threads_batch=1, verbose=False, seed=0)

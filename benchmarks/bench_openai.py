@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from openai_fixture import llama_server  # noqa: E402
 
 from interllm.config import from_dict  # noqa: E402
-from interllm.llm.embedded import resolve_model_path  # noqa: E402
+from interllm.llm.model_files import resolve_model_path  # noqa: E402
 from interllm.stages.candidates import run_candidates  # noqa: E402
 from interllm.stages.missions import run_missions  # noqa: E402
 from interllm.stages.scenes import run_scenes  # noqa: E402

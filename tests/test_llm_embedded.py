@@ -11,7 +11,8 @@ import pytest
 
 from interllm.config import LLMConfig
 from interllm.llm import LLMRequest, Message, ScoreRequest, make_client
-from interllm.llm.embedded import CHUNK, EmbeddedBackend, assemble_packaged_model, format_messages
+from interllm.llm.embedded import CHUNK, EmbeddedBackend, format_messages
+from interllm.llm.model_files import assemble_packaged_model
 
 pytestmark = pytest.mark.embedded
 
@@ -159,3 +160,35 @@ def test_batched_scores_are_a_function_of_the_request(backend):
     assert again.tokens_in == first.tokens_in  # counted alike: the cache stores what the request costs
     alone = backend.score(prompt, [conts[-1]])  # decoded in a group of one
     assert abs(alone.raw[0] - first.raw[-1]) < 0.15
+
+
+def test_one_sequence_fallback_scores_like_the_batched_path(backend, monkeypatch):
+    """A llama-cpp-python without the context-params field ``kv_unified`` keeps its one-sequence
+    context; each continuation is then decoded alone on sequence 0, close to the batched scores, a
+    function of the request, and the context holds the prompt afterwards."""
+    import ctypes
+
+    import llama_cpp
+
+    from interllm.llm import llama_internals
+
+    real = llama_cpp.llama_context_params
+    older = type(real.__name__, (ctypes.Structure,), {"_fields_": [f for f in real._fields_ if f[0] != "kv_unified"]})
+    monkeypatch.setattr(llama_internals, "_context_params_type", lambda: older)
+    fallback = EmbeddedBackend(LLMConfig(n_ctx=1024, n_threads=1))
+    try:
+        _ = fallback.llm
+        assert not fallback.multi_sequence and backend.multi_sequence
+        assert llama_cpp.llama_n_seq_max(fallback.llm._ctx.ctx) == 1
+        prompt = "Request: Set up breakfast on the dining table.\nUseful item and where it is:"
+        conts = [" a cup on the table", " bread in the kitchen", " a laptop on the desk"]
+        one = fallback.score(prompt, conts, "Useful item:")
+        batched = backend.score(prompt, conts, "Useful item:")
+        assert all(abs(a - b) < 0.15 for a, b in zip(one.raw + one.calibration, batched.raw + batched.calibration,
+                                                       strict=True))
+        n_prompt = len(fallback.tokenize(prompt)) - 1  # evaluated: all but the prompt's last token
+        assert llama_cpp.llama_memory_seq_pos_max(fallback.llm._ctx.memory, 0) == n_prompt - 1  # no continuation
+        fallback.score("Something else entirely.", [" a", " b"])
+        assert fallback.score(prompt, conts, "Useful item:").raw == one.raw
+    finally:
+        fallback.close()

@@ -142,7 +142,7 @@ def test_llm_probe_command_prints_the_probe(tmp_path):
 # -- a real server ------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def real_server():
-    from interllm.llm.embedded import resolve_model_path
+    from interllm.llm.model_files import resolve_model_path
 
     with llama_server(str(resolve_model_path(""))) as base:
         yield base

