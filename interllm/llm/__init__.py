@@ -8,16 +8,20 @@ OpenAI-compatible server, or the ground-truth oracle).
                    options=client.default_options(sample_index=j, seed=planning_seed(base, "candidates", j))))
 
 Modules: ``types`` (requests and responses), ``backend`` (the Backend protocol and factory),
-``client`` (cache + call log + schema repair), ``cache``, ``calllog``, ``schema``, ``health``
-(failure share), ``deadline``, ``prompts``, ``errors``; backends ``embedded``, ``ollama_backend``,
-``openai_backend`` and ``oracle_backend``; ``testing`` holds a deterministic test backend (never imported here).
+``client`` (cache + call log + schema repair), ``client_state`` (counters, failure share and model
+pin shared by a client's views), ``cache``, ``calllog``, ``schema``, ``health`` (failure share),
+``deadline``, ``prompts``, ``errors``; backends ``embedded`` (with ``model_files``, the GGUF, and
+``llama_internals``, the llama-cpp-python internals it needs and their start-up check),
+``ollama_backend``, ``openai_backend`` and ``oracle_backend``; ``testing`` holds a deterministic
+test backend (never imported here).
 """
 
 from interllm.llm import embedded, ollama_backend, openai_backend, oracle_backend  # noqa: F401  (each registers its backend)
 from interllm.llm.backend import BACKENDS, Backend, Generation, Scores, make_backend, preflight
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog
-from interllm.llm.client import ClientStats, LLMClient, make_client
+from interllm.llm.client import LLMClient, make_client
+from interllm.llm.client_state import ClientStats
 from interllm.llm.errors import LLMError, LLMOutputError, LLMQualityError
 from interllm.llm.prompts import Template, TemplateError, load_template, template_names
 from interllm.llm.schema import check_answer

@@ -5,7 +5,8 @@ ScoreResponse``. A request is looked up in the content-addressed cache first (se
 :mod:`interllm.llm.cache`); on a miss the backend answers, the answer is validated against the
 request's JSON schema (bounded repair retries feed the error back to the model) and stored.
 Every call is appended to the call log. ``with_context(**labels)`` returns a view whose calls
-carry extra call-log labels (planner, scene, mission, command).
+carry extra call-log labels (planner, scene, mission, command); a client and its views share one
+:class:`~interllm.llm.client_state.ClientCore` (counters, failure share, model identity).
 
 Sampling seeds: attempt ``a`` of a request uses ``llm_sample_seed(options.seed, options.sample_index,
 a)`` (``interllm.core.seeding``).
@@ -15,23 +16,19 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import logging
-import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
 from interllm.config import LLMConfig
 from interllm.core import jsonfmt
 from interllm.core.seeding import llm_sample_seed
-from interllm.io import atomic_write_text
 from interllm.llm.backend import Backend, make_backend
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog, make_record
-from interllm.llm.errors import LLMOutputError, LLMQualityError
-from interllm.llm.health import MIN_CALLS_FOR_EARLY_STOP, failure_share_message
+from interllm.llm.client_state import ClientCore, ClientStats
+from interllm.llm.errors import LLMOutputError
 from interllm.llm.prompts import template_hash
 from interllm.llm.schema import check_answer, validate_schema
 from interllm.llm.types import (
@@ -43,94 +40,11 @@ from interllm.llm.types import (
     ScoreResponse,
 )
 
-log = logging.getLogger(__name__)
-
-MODELS_PIN_FILE = "models.json"  # in cache_dir: model name -> identity, for offline replay
-
-
-@dataclass
-class ClientStats:
-    """Counters over a client's lifetime (views share them)."""
-
-    calls: int = 0  # complete + score calls
-    complete_calls: int = 0
-    score_calls: int = 0
-    cache_hits: int = 0
-    backend_calls: int = 0  # backend round trips incl. repair attempts
-    tokens_in: int = 0  # prompt tokens of backend calls (0 for cache hits)
-    tokens_out: int = 0
-    prompt_tokens_reused: int = 0  # of tokens_in, served from the backend's KV prefix cache
-    repairs: int = 0  # re-asks after invalid output
-    failures: int = 0
-    backend_seconds: float = 0.0  # wall time in the backend [s] (diagnostics only)
-
-
-
-class _Core:
-    """State shared by a client and its views."""
-
-    def __init__(self, cfg: LLMConfig, backend: Backend, cache: ResponseCache,
-                 call_log: Optional[CallLog]) -> None:
-        self.cfg = cfg
-        self.backend = backend
-        self.cache = cache
-        self.call_log = call_log
-        self.stats = ClientStats()
-        self.lock = threading.RLock()
-        self._model_id: Optional[str] = None
-        self.failed_calls = 0  # calls that ended in an error (unparseable after repairs, backend error)
-        self.failed_cached = 0  # of them, failures the cache replayed (stored by an earlier run)
-        self.last_failed_answer = ""
-
-    def note_failure(self, answer: str, cached: bool = False) -> Optional[LLMQualityError]:
-        """Count a failed call (``cached``: a failure the cache replayed); the error to raise instead when
-        the failure share is over its bound."""
-        self.failed_calls += 1
-        self.failed_cached += cached
-        self.last_failed_answer = answer
-        n, bound = self.stats.calls, self.cfg.max_failure_share
-        if n >= MIN_CALLS_FOR_EARLY_STOP and self.failed_calls > bound * n:
-            return LLMQualityError(failure_share_message(
-                self.backend.name, self.backend.model_name(), n, self.failed_calls, bound, answer,
-                "stopping early", self.failed_cached, str(self.cache.dir)))
-        return None
-
-    def model_id(self) -> str:
-        """Backend model identity for cache keys; pinned in ``<cache_dir>/models.json`` so
-        replay works offline (e.g. without the Ollama server)."""
-        if self._model_id is not None:
-            return self._model_id
-        name = f"{self.backend.name}:{self.backend.model_name()}"
-        pin_path = self.cache.dir / MODELS_PIN_FILE
-        pins: dict = {}
-        try:
-            pins = json.loads(pin_path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            pins = {}
-        try:
-            mid = self.backend.model_id()
-        except Exception as e:  # noqa: BLE001 - backend unreachable
-            if self.cache.mode == "replay" and name in pins:
-                mid = pins[name]
-                log.info("model identity of %s from %s (backend unavailable: %s)", name, pin_path, e)
-            else:
-                raise
-        if self.cache.mode == "readwrite" and self.cache.writable and pins.get(name) != mid:
-            pins[name] = mid
-            try:
-                atomic_write_text(pin_path, json.dumps(pins, indent=1, sort_keys=True) + "\n")
-            except OSError as e:
-                self.cache.writable = False
-                log.warning("LLM cache %s cannot be written (%s: %s); answers of this run are not cached",
-                            self.cache.dir, pin_path, e.strerror or e)
-        self._model_id = mid
-        return mid
-
 
 class LLMClient:
     """Cached, logged, schema-checked access to one backend. Build it with :func:`make_client`."""
 
-    def __init__(self, core: _Core, context: tuple[tuple[str, str], ...] = (),
+    def __init__(self, core: ClientCore, context: tuple[tuple[str, str], ...] = (),
                  observers: tuple[Callable[[Any, Any], None], ...] = ()) -> None:
         self._core = core
         self.context = tuple(context)
@@ -451,7 +365,7 @@ def make_client(cfg: LLMConfig, call_log_path: Optional[str | Path] = None,
                 if call_log_path is not None or call_log_callback is not None else None)
     ctx = tuple(sorted((str(k), str(v)) for k, v in (context.items() if isinstance(context, dict)
                                                       else context)))
-    return LLMClient(_Core(cfg, be, cache, call_log), ctx)
+    return LLMClient(ClientCore(cfg, be, cache, call_log), ctx)
 
 
 def complete_or_none(client: Any, request: LLMRequest) -> Optional[LLMResponse]:

@@ -39,15 +39,17 @@ def check_failure_share(call_log: str | Path, cfg: LLMConfig, where: str) -> Non
     ``call_log`` failed (the end-of-stage check; clients also stop early, see ``note_failure``)."""
     n, failed, sample, backend, model, cached = call_log_failures(call_log)
     if n and failed > cfg.max_failure_share * n:
-        raise LLMQualityError(failure_share_message(backend, model, n, failed, cfg.max_failure_share,
-                                                    sample, f"{where} (call log {call_log})",
-                                                    cached, cfg.cache_dir))
+        raise LLMQualityError(failure_share_message(
+            backend=backend, model=model, n_calls=n, n_failed=failed, bound=cfg.max_failure_share,
+            sample=sample, where=f"{where} (call log {call_log})", n_cached=cached, cache_dir=cfg.cache_dir))
 
 
-def failure_share_message(backend: str, model: str, n_calls: int, n_failed: int, bound: float,
+def failure_share_message(*, backend: str, model: str, n_calls: int, n_failed: int, bound: float,
                           sample: str, where: str, n_cached: int = 0, cache_dir: str = "") -> str:
-    """The failure-share stop; when the cache answered some of the failed calls (failures stored by an
-    earlier run, replayed without asking the server), it says so and how to ask again."""
+    """The failure-share stop: ``n_failed`` of ``n_calls`` calls to ``backend``/``model`` failed,
+    over the share ``bound`` (fraction); ``sample``: one failed answer; ``where``: the stage or log.
+    When the cache answered ``n_cached`` of the failed calls (failures stored by an earlier run in
+    ``cache_dir``, replayed without asking the server), it says so and how to ask again."""
     share = n_failed / max(1, n_calls)
     check = ("the model and server (a base model in generate mode? the wrong llm.model?), or raise "
              "llm.max_failure_share to go on anyway")
