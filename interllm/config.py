@@ -1,12 +1,15 @@
 """Typed experiment configuration.
 
-These dataclasses are the single schema of the experiment. The pipeline registers them in
-Hydra's ConfigStore (``pipeline/_hydra.py``) so that a typo or a wrong type fails at
-composition; ``validate()`` (called from ``__post_init__``) checks ranges and choices, so a bad
-value fails with the config key and the valid choices. Names of registered implementations
-(planners, LLM backends, proposal modes) are checked against their registries by
-``interllm.stages.validate.check_registered`` at composition and before a stage uses them. The library itself never imports hydra:
-it receives instances of these classes.
+These dataclasses are the single schema of the experiment and hold every default: the option
+files in ``conf/`` set only what differs from them (``llm=ollama``: the backend, the model and the
+proposal modes). The Hydra plugin ``hydra_plugins/interllm_schema`` registers ``ExperimentConfig``
+in Hydra's ConfigStore, so every composition of ``conf/`` (DVC's included) starts from these
+defaults and a typo or a wrong type fails at composition; ``validate()`` (called from
+``__post_init__``) checks ranges and choices, so a bad value fails with the config key and the
+valid choices. Names of registered implementations (planners, LLM backends, proposal modes) are
+checked against their registries by ``interllm.stages.validate.check_registered`` at composition
+and before a stage uses them. The library itself never imports hydra: it receives instances of
+these classes.
 
 Units are in the field comments: metres [m], seconds [s], radians [rad].
 """
@@ -29,7 +32,7 @@ MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stage
 ORACLE_COSTS = ("classes", "numeric")  # llm.oracle_costs (interllm/planning/oracle.py)
 COST_ENCODINGS = ("paper", "expected")  # planner.cost_encoding (interllm/planning/costs.py)
 CANDIDATE_DIVERSITY = ("objects", "plans")  # llm.candidate_diversity (interllm/planning/scoring.py)
-POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: the earlier protocol, the paper's (interllm/sim/base_poses.py)
+POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: a small window by the furniture, the paper's reach (interllm/sim/base_poses.py)
 
 
 class ConfigError(UserError, ValueError):
@@ -63,8 +66,8 @@ class SceneConfig:
     partly_closed_door_prob: float = 0.25  # door leaf blocks part of the opening (true map only)
     hard_placement_prob: float = 0.3  # object deep on a wide surface, high shelf, clutter
     # graded: every requested category gets easy, medium and hard instances in different places, and
-    # each command at least objects_per_command easy ones on reachable furniture; legacy: the
-    # earlier generator (hard placements with hard_placement_prob only)
+    # each command at least objects_per_command easy ones on reachable furniture; legacy: hard
+    # placements drawn with hard_placement_prob only
     object_design: str = "graded"
     wall_thickness: float = 0.1  # [m]
     wall_height: float = 2.5  # [m]
@@ -100,7 +103,7 @@ class MissionConfig:
     limit_missions: Optional[int] = None  # run only the first N missions (smoke runs)
     # measured: commands are drawn among those the simulator's measurement says a planner can fulfil
     # (enough reachable and placeable instances, distinct across the mission); a command that
-    # cannot be filled is reduced or dropped with a log line. off: the earlier, unchecked draw
+    # cannot be filled is reduced or dropped with a log line. off: commands drawn unchecked
     feasibility: str = "measured"
 
     def validate(self) -> None:
@@ -136,8 +139,8 @@ class LLMConfig:
     proposal_mode: str = "score"  # how candidates are proposed (interllm.planning.proposers.PLAN_PROPOSERS)
     cost_inference_mode: str = "score"  # manipulation-cost inference (...proposers.COST_INFERRERS)
     # cost-inference prompts say where on its furniture each object is (scene/placement.py): the
-    # furniture instance, depth from the open side, surface height, clearance, size (false: the
-    # earlier protocol: furniture category and room only)
+    # furniture instance, depth from the open side, surface height, clearance, size (false:
+    # furniture category and room only)
     placement_attributes: bool = True
     constrain_names: bool = True  # enumerate valid scene-graph names in schemas
     repair_retries: int = 2  # re-asks after malformed output
@@ -151,7 +154,7 @@ class LLMConfig:
     room_beam: int = 3
     furniture_beam: int = 6
     room_widenings: int = 2
-    max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail
+    max_failure_share: float = 0.05  # a stage stops when a larger share of its LLM calls fail or give unparseable answers
     # llm=oracle: the share of the oracle's answers (relevance, target, cost class) replaced by
     # seeded random ones (interllm/planning/oracle.py); read only when llm.backend is oracle
     oracle_error: float = 0.0
@@ -159,7 +162,7 @@ class LLMConfig:
     # number itself (numeric), to tell the encoding's limit from the model's
     oracle_costs: str = "classes"
     # score and oracle modes: objects: the M candidates differ in the objects they take where the
-    # house allows it; plans: they differ in (objects, target) only (the earlier sampler)
+    # house allows it; plans: they differ in (objects, target) only
     candidate_diversity: str = "objects"
 
     @property
@@ -218,14 +221,16 @@ class PlannerConfig:
     names: list[str] = field(default_factory=lambda: ["inter_llm", "sayplan", "moma_llm", "nothing", "optimal"])
     M: int = 3  # plan candidates per command
     max_regenerations: int = 3  # feasibility-repair rounds per candidate (bounded loop)
-    nav_estimate: str = "prior"  # one of NAV_ESTIMATES (paper_sum: the paper's equation)
+    # one of NAV_ESTIMATES (interllm/planning/costs.py): paper_sum: the paper's equation; prior: the
+    # path's length times a similarity-weighted mean of the known costs per metre, with the path's
+    # own cost per metre as a prior
+    nav_estimate: str = "prior"
     epsilon_d: float = 1.0  # [m] path-overlap distance scale of P°
     moma_max_replans: int = 3  # MoMa-LLM replans after execution failures, per command
     sayplan_max_iterations: int = 3  # SayPlan symbolic-simulator replanning rounds
-    # true (the committed results): like Inter-LLM, SayPlan and MoMa-LLM propose commands 2.. from
-    # the current scene and state, excluding delivered objects (only Inter-LLM's prompts carry
-    # known costs); false (the earlier protocol): they take every command's plans from the
-    # mission-start candidates
+    # true: like Inter-LLM, SayPlan and MoMa-LLM propose commands 2.. from the current scene and
+    # state, excluding delivered objects (only Inter-LLM's prompts carry known costs); false: they
+    # take every command's plans from the mission-start candidates
     fair_baselines: bool = True
     # paper: a manipulation estimate is the decoded class (or the known cost); expected: plus the
     # expected loss of the object, gamma_obj times the chance the action fails outright
@@ -267,7 +272,7 @@ class SimConfig:
     recovery_time: float = 3.0  # [s] backing off after a collision
     backoff: float = 0.15  # [m]
     max_nav_replans: int = 6  # bounded replans after collisions per navigate action
-    # false (the paper, the committed results): each navigate starts from the prior map; what a
+    # false (the paper's protocol): each navigate starts from the prior map; what a
     # planner learns of navigation is what its known costs record. true (ablation): cells where the
     # robot collided stay blocked on its map for the rest of the mission, for every planner
     persistent_map: bool = False
@@ -280,7 +285,7 @@ class SimConfig:
     ik_dt: float = 0.05  # [s] IK integration step
     joint_speed: float = 1.0  # [rad/s] arm joint velocity limit (trial time)
     # [m] the arm slows down within this distance of an obstacle (speed and separation monitoring),
-    # so clutter, shelves and walls show in the manipulation time; 0: constant joint_speed (earlier protocol)
+    # so clutter, shelves and walls show in the manipulation time; 0: constant joint_speed
     arm_slow_distance: float = 0.15
     arm_min_speed: float = 0.2  # share of joint_speed the arm keeps at contact distance
     grasp_time: float = 2.0  # [s] closing / opening the gripper
@@ -332,7 +337,8 @@ class MetricsConfig:
 
 @dataclass
 class ExperimentConfig:
-    """The root config; ``conf/config.yaml`` composes it."""
+    """The root config and every default; ``conf/config.yaml`` composes it (through the Hydra plugin
+    ``hydra_plugins/interllm_schema``) with the option files' differences on top."""
 
     experiment: str = "paper"
     seed: int = 0

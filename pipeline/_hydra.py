@@ -1,33 +1,47 @@
-"""Registers the typed schema (interllm.config dataclasses) in Hydra's ConfigStore.
+"""Compose conf/ with Hydra into the typed experiment config.
 
-conf/config.yaml lists it as `optional _schema: root`: in our processes (pipeline.run,
-pipeline.params, the tests) composition is typed and validated; DVC's own composition, which
-does not import this module, skips it and the stages validate params.yaml instead.
+The schema (the interllm.config dataclasses, which hold every default) reaches Hydra through the
+plugin ``hydra_plugins/interllm_schema``: Hydra's plugin discovery imports it when Hydra
+initialises, in this process as in DVC's (``dvc exp run -S``), and conf/config.yaml lists it
+first (``_schema: root``). The files in conf/ hold only what differs from the defaults.
 """
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
-from hydra.core.config_store import ConfigStore
-
-from interllm.config import ExperimentConfig, from_dict
+from interllm.config import ConfigError, ExperimentConfig, from_dict
 from interllm.stages.validate import check_registered
 
 CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
+SCHEMA_ENTRY = "_schema/root.yaml"  # hydra_plugins/interllm_schema stores ExperimentConfig here
 
 
-def register() -> None:
-    ConfigStore.instance().store(group="_schema", name="root", node=ExperimentConfig, package="_global_")
+def require_schema() -> None:
+    """Raise ConfigError unless Hydra's plugin discovery has registered the schema (the plugin
+    package is not importable: the project is not installed in this interpreter)."""
+    from hydra.core.config_store import ConfigStore
+    from hydra.core.plugins import Plugins
+    from hydra.plugins.config_source import ConfigLoadError
+
+    Plugins.instance()  # the first call imports every hydra_plugins.* module
+    try:
+        ConfigStore.instance().load(SCHEMA_ENTRY)
+    except ConfigLoadError:
+        raise ConfigError(
+            f"Hydra found no config schema ({SCHEMA_ENTRY[:-5]}): the plugin hydra_plugins/interllm_schema is "
+            f"not importable by {sys.executable}; install the project into it (`make install`, or "
+            f"`pip install -e .`)") from None
 
 
-def compose(overrides: list[str] | None = None, typed: bool = True):
-    """Compose conf/ like DVC does (typed=False) or with the schema (typed=True)."""
+def compose(overrides: list[str] | None = None):
+    """The DictConfig of conf/config.yaml with ``overrides``, as DVC's composition gives it (typed by
+    the schema: a typo or a wrong type fails here)."""
     from hydra import compose as _compose
     from hydra import initialize_config_dir
 
-    if typed:
-        register()
+    require_schema()
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         return _compose(config_name="config", overrides=list(overrides or []))
 

@@ -1,4 +1,5 @@
-"""Compose conf/ (+ overrides) into params.yaml, exactly as DVC's Hydra integration does.
+"""Compose conf/ (+ overrides) into params.yaml, exactly as DVC's Hydra integration does (both load
+the config schema through the Hydra plugin hydra_plugins/interllm_schema).
 
     python -m pipeline.params                      # the default experiment (paper)
     python -m pipeline.params experiment=quick     # any Hydra overrides
@@ -22,7 +23,7 @@ from pipeline._hydra import compose, to_config
 
 def compose_params(overrides: list[str]) -> str:
     """The params.yaml text: written exactly as DVC's compose_and_dump writes it."""
-    cfg = compose(overrides, typed=True)
+    cfg = compose(overrides)
     to_config(cfg)  # validate types, ranges and unknown keys (raises ConfigError naming the key)
     OmegaConf.resolve(cfg)
     return OmegaConf.to_yaml(cfg)

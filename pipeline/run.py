@@ -23,9 +23,7 @@ from interllm.errors import UserError, output_error
 from interllm.stages.pipeline import run_all
 from interllm.stages.workers import usable_cores
 from pipeline._common import ROOT, setup_logging
-from pipeline._hydra import CONF_DIR, register, to_config
-
-register()
+from pipeline._hydra import CONF_DIR, to_config
 
 
 def run(cfg: DictConfig) -> dict:

@@ -3,11 +3,14 @@ the composition of conf/ (as DVC's own Hydra integration writes it)."""
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
+from dataclasses import asdict
 from pathlib import Path
 
 import pytest
+import yaml
 from omegaconf import OmegaConf
 
 from interllm.config import ConfigError, ExperimentConfig, from_dict
@@ -133,8 +136,114 @@ def _differences(a: dict, b: dict, prefix: str = "") -> list[str]:
 
 def test_the_composed_default_is_the_dataclass_default():
     """conf/ (what runs use) and the dataclasses (what ExperimentConfig() in tests and code gives) hold
-    the same defaults: a value changed in one place only is named here."""
-    from dataclasses import asdict
-
-    composed = asdict(to_config(compose([], typed=False)))
+    the same defaults: a base option file that sets a value other than the dataclass's is named here."""
+    composed = asdict(to_config(compose([])))
     assert _differences(composed, asdict(ExperimentConfig())) == []
+
+
+GROUPS = ("scene", "mission", "llm", "planner", "sim", "metrics")
+
+
+def _leaves(d: dict, prefix: str = ""):
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from _leaves(v, f"{prefix}{k}.")
+        else:
+            yield f"{prefix}{k}", v
+
+
+def _lookup(d: dict, dotted: str):
+    for k in dotted.split("."):
+        if not isinstance(d, dict) or k not in d:
+            return "<missing>"
+        d = d[k]
+    return d
+
+
+def _inherited(conf: Path, group: str, raw: dict) -> dict:
+    """The values of the sibling options an option file names in its defaults list."""
+    out: dict = {}
+    for parent in raw.get("defaults", []):
+        if isinstance(parent, str) and parent != "_self_":
+            parent_raw = yaml.safe_load((conf / group / f"{parent}.yaml").read_text()) or {}
+            out.update({**_inherited(conf, group, parent_raw), **parent_raw})
+    out.pop("defaults", None)
+    return out
+
+
+def _composed(conf: Path, overrides: list[str]) -> dict:
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+
+    with initialize_config_dir(config_dir=str(conf), version_base="1.3"):
+        return OmegaConf.to_container(hydra_compose(config_name="config", overrides=overrides), resolve=True)
+
+
+def repeated_defaults(conf: Path) -> list[str]:
+    """Every value an option file under ``conf`` sets to what it would be without it: a group option
+    file against the dataclass defaults (and the sibling options it names in its defaults list), an
+    experiment against the composition of the groups it overrides, conf/config.yaml against
+    ExperimentConfig(). An experiment's own name (key ``experiment``) is exempt."""
+    default = asdict(ExperimentConfig())
+    found = []
+    root = yaml.safe_load((conf / "config.yaml").read_text()) or {}
+    found += [f"config.yaml: {k}: {v!r}" for k, v in _leaves(root) if k != "defaults" and _lookup(default, k) == v]
+    for group in GROUPS:
+        for path in sorted((conf / group).glob("*.yaml")):
+            raw = yaml.safe_load(path.read_text()) or {}
+            base = {**default[group], **_inherited(conf, group, raw)}
+            found += [f"{group}/{path.name}: {k}: {v!r}" for k, v in _leaves(raw) if k != "defaults"
+                      and _lookup(base, k) == v]
+    for path in sorted((conf / "experiment").glob("*.yaml")):
+        raw = yaml.safe_load(path.read_text()) or {}
+        overrides = [f"{k.split('/')[-1]}={v}" for entry in raw.pop("defaults", []) if isinstance(entry, dict)
+                     for k, v in entry.items() if k.startswith("override /")]
+        base = _composed(conf, overrides)
+        found += [f"experiment/{path.name}: {k}: {v!r}" for k, v in _leaves(raw) if k != "experiment"
+                  and _lookup(base, k) == v]
+    return found
+
+
+def test_option_files_hold_only_what_differs_from_the_defaults():
+    """Defaults live once, in interllm/config.py: an option file that repeats one is named here (delete
+    the line; a value that differs belongs in the option file)."""
+    assert repeated_defaults(ROOT / "conf") == []
+
+
+def test_a_repeated_default_is_found(tmp_path):
+    conf = tmp_path / "conf"
+    shutil.copytree(ROOT / "conf", conf)
+    with (conf / "scene" / "paper.yaml").open("a") as f:
+        f.write("n_rooms: 9\n")
+    with (conf / "llm" / "oracle.yaml").open("a") as f:
+        f.write("oracle_error: 0.0\n")
+    with (conf / "experiment" / "quick.yaml").open("a") as f:
+        f.write("planner:\n  M: 3\n")
+    assert repeated_defaults(conf) == ["scene/paper.yaml: n_rooms: 9", "llm/oracle.yaml: oracle_error: 0.0",
+                                       "experiment/quick.yaml: planner.M: 3"]
+
+
+def test_hydra_plugin_discovery_registers_the_schema(tmp_path):
+    """Hydra's plugin discovery alone (no project module imported, the checkout not on sys.path: as in
+    DVC's composition) registers the schema from this checkout's hydra_plugins/interllm_schema, which the
+    editable install (`make install`) puts on the interpreter's path."""
+    code = (
+        "import sys; from hydra.core.plugins import Plugins; from hydra.core.config_store import ConfigStore; "
+        "Plugins.instance(); node = ConfigStore.instance().load('_schema/root.yaml').node; "
+        "print(sys.modules['hydra_plugins.interllm_schema'].__file__); "
+        "print(sorted(k for k in sys.modules if k.split('.')[0] == 'pipeline')); print(node.scene.n_rooms)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, capture_output=True,
+                         text=True).stdout.splitlines()
+    assert Path(out[0]) == ROOT / "hydra_plugins" / "interllm_schema" / "__init__.py"
+    assert out[1:] == ["[]", str(ExperimentConfig().scene.n_rooms)]
+
+
+def test_a_missing_schema_plugin_is_named(monkeypatch):
+    from hydra.core.config_store import ConfigStore
+    from hydra.core.plugins import Plugins
+
+    Plugins.instance()  # discovery done: it does not run again to restore the entry
+    monkeypatch.delitem(ConfigStore.instance().repo, "_schema")
+    with pytest.raises(ConfigError, match=r"hydra_plugins/interllm_schema .*`make install`"):
+        compose([])

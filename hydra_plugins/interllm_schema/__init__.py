@@ -1,0 +1,30 @@
+"""The experiment's typed schema as a Hydra plugin: importing this module stores
+``interllm.config.ExperimentConfig`` in Hydra's ConfigStore as ``_schema/root`` (package
+``_global_``), which ``conf/config.yaml`` lists first in its defaults.
+
+Hydra imports every module of the ``hydra_plugins`` namespace package when it initialises
+(``hydra.core.plugins.Plugins``), so every process that composes ``conf/`` gets the schema
+without importing project code: ``python -m pipeline.run``, ``python -m pipeline.params``, the
+tests, and DVC's own composition of params.yaml (``dvc repro``, ``dvc exp run -S``). The schema
+holds every default; the files in ``conf/`` hold only what differs from it.
+
+``hydra_plugins/`` has no ``__init__.py`` (Hydra requires a namespace package); the editable
+install (``pip install -e .``, ``make install``) puts this package on the interpreter's path.
+"""
+
+from __future__ import annotations
+
+from hydra.core.config_store import ConfigStore
+
+from interllm.config import ExperimentConfig
+
+SCHEMA_GROUP = "_schema"
+SCHEMA_NAME = "root"
+
+
+def register() -> None:
+    """Store ExperimentConfig as ``_schema/root`` (idempotent: a second call overwrites the entry)."""
+    ConfigStore.instance().store(group=SCHEMA_GROUP, name=SCHEMA_NAME, node=ExperimentConfig, package="_global_")
+
+
+register()
