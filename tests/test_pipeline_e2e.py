@@ -149,11 +149,19 @@ def test_a_failed_stage_names_the_key_and_how_to_restore_its_outputs(quick_repo)
                       if p.is_file())
 
     before = {stage: listing(stage) for stage in outs}
+    # a wrong type fails at DVC's composition (the schema plugin), before any stage runs
     r = subprocess.run([str(BIN / "dvc"), "exp", "run", "-S", "planner.M=abc"], cwd=repo, env=env,
                        capture_output=True, text=True, timeout=600)
     out = r.stdout + r.stderr
     assert r.returncode != 0 and "Traceback" not in out
-    assert "config key 'planner.M'" in out and "must be an integer, got 'abc'" in out
+    assert "planner.M=abc" in out and "full_key: planner.M" in out, out
+    assert {stage: listing(stage) for stage in outs} == before
+    # a value out of range fails in the stage that validates params.yaml
+    r = subprocess.run([str(BIN / "dvc"), "exp", "run", "-S", "planner.M=0"], cwd=repo, env=env,
+                       capture_output=True, text=True, timeout=600)
+    out = r.stdout + r.stderr
+    assert r.returncode != 0 and "Traceback" not in out
+    assert "config key 'planner.M'" in out and "must be in [1, 20], got 0" in out
     m = re.search(r"`dvc checkout (\w+)` restores them", out)
     assert m and m[1] in outs, out
     _run([str(BIN / "dvc"), "checkout", m[1]], repo, env)
