@@ -26,7 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from openai_fixture import llama_server  # noqa: E402
+from helpers.openai_server import llama_server  # noqa: E402
 
 from interllm.config import from_dict  # noqa: E402
 from interllm.llm.model_files import resolve_model_path  # noqa: E402

@@ -157,7 +157,7 @@ def main_generate(rooms_list: list[int]) -> int:
     import llama_cpp
 
     sys.path.insert(0, str(ROOT / "tests"))
-    from openai_fixture import llama_server
+    from helpers.openai_server import llama_server
 
     from interllm.llm.model_files import resolve_model_path
 

@@ -1,7 +1,7 @@
 """Bad input: each case ends in one message naming the problem and the
 fix (a config key, file or URL), exit status 2 where a user's input is at fault, and nothing already
 written is lost. One group of tests per numbered item of the issue; the OpenAI-compatible cases run
-against a fake server on 127.0.0.1 (tests/openai_fixture.py)."""
+against a fake server on 127.0.0.1 (tests/helpers/openai_server.py)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from openai_fixture import MODEL, REQ, SCHEMA, FakeOpenAI, openai_cfg  # noqa: E402
+from helpers.openai_server import MODEL, REQ, SCHEMA, FakeOpenAI, openai_cfg  # noqa: E402
 from procthor_houses import obj, rect, room_walls  # noqa: E402
 
 from interllm.config import ConfigError, LLMConfig, MissionConfig, from_dict  # noqa: E402
@@ -400,7 +400,7 @@ def _flip_inside_a_chunk(path: Path) -> int:
 
 
 def test_6_a_bit_flipped_mcap_is_damaged_not_truncated(tmp_path):
-    from test_record_helpers import write_run
+    from helpers.recording import write_run
 
     from interllm.record import read_run
     from interllm.record.reader import RunLogCorruptError

@@ -11,7 +11,7 @@ import random
 from dataclasses import replace
 
 import pytest
-from test_planners_fakes import ScriptedClient, tiny_mission, tiny_scene
+from helpers.planners import ScriptedClient, tiny_mission, tiny_scene
 
 from interllm.config import ConfigError, ExperimentConfig, LLMConfig
 from interllm.core.actions import State

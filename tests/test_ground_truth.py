@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_planners_fakes import FakeScoreClient, SymbolicWorld, tiny_mission, tiny_scene
+from helpers.planners import FakeScoreClient, SymbolicWorld, tiny_mission, tiny_scene
 from test_sim_poses import kitchen
 
 from interllm.config import ExperimentConfig, SimConfig

@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from llm_golden import GOLDEN, SCORE_CASES, compute
+from helpers.llm_golden import GOLDEN, SCORE_CASES, compute
 
 pytestmark = pytest.mark.embedded
 
@@ -27,7 +27,7 @@ def _builds(golden: dict, now: dict) -> str:
     g, n = golden["build"], now["build"]
     return (f"\n  golden file's build: {g['kind']} {g['simd_features']}\n    {g['system_info']}"
             f"\n  this build:          {n['kind']} {n['simd_features']}\n    {n['system_info']}"
-            f"\n  (regenerate only on purpose: .venv/bin/python tests/llm_golden.py)")
+            f"\n  (regenerate only on purpose: .venv/bin/python tests/helpers/llm_golden.py)")
 
 
 def test_golden_requests_are_the_committed_ones(golden):

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from ollama_fixture import FakeOllama, free_port  # noqa: E402
+from helpers.ollama_server import FakeOllama, free_port  # noqa: E402
 
 from interllm.config import LLMConfig  # noqa: E402
 from interllm.core.seeding import llm_sample_seed  # noqa: E402

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from openai_fixture import MODEL, REQ, FakeOpenAI, free_port, llama_server, openai_cfg  # noqa: E402
+from helpers.openai_server import MODEL, REQ, FakeOpenAI, free_port, llama_server, openai_cfg  # noqa: E402
 
 from interllm.config import LLMConfig, from_dict  # noqa: E402
 from interllm.llm import LLMOutputError, ScoreRequest, make_client  # noqa: E402

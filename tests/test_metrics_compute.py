@@ -160,7 +160,7 @@ def test_records_round_trip():
     assert MissionRecord.from_dict(rec.to_dict()).to_dict() == rec.to_dict()
 
 
-def test_aggregate_writes_tables(tmp_path):
+def test_aggregate_writes_tables(tmp_path, cfg):
     from interllm.io import write_json
 
     write_json(tmp_path / "scenes" / "s0" / "scene.json",
@@ -172,7 +172,6 @@ def test_aggregate_writes_tables(tmp_path):
     base.planner = "sayplan"
     base.commands[1].actions[2].collisions = 5  # +3 collisions -> +30 on obj 3
     write_json(tmp_path / "runs" / "sayplan" / "s0" / "m000.json", base.to_dict())
-    cfg = ExperimentConfig()
     out = write_metrics(tmp_path / "runs", tmp_path / "scenes", cfg, tmp_path / "metrics")
     assert out["planners"]["inter_llm"]["m_overall"] == pytest.approx(562)
     assert out["planners"]["sayplan"]["m_overall"] == pytest.approx(592)

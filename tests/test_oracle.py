@@ -7,7 +7,7 @@ import json
 from collections import Counter
 
 import pytest
-from test_planners_fakes import SymbolicWorld, tiny_mission, tiny_scene
+from helpers.planners import SymbolicWorld, tiny_mission, tiny_scene
 
 from interllm.config import ConfigError, ExperimentConfig, LLMConfig, from_dict
 from interllm.core.actions import Action, plan_from_list

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_planners_fakes import FakeScoreClient, SymbolicWorld, tiny_scene
+from helpers.planners import FakeScoreClient, SymbolicWorld, tiny_scene
 from test_planners_symbolic import ListRecorder
 from test_sim_world import START, house, mission, nav
 

@@ -3,7 +3,7 @@
 import json
 
 import pytest
-from test_planners_fakes import FakeScoreClient, ScriptedClient, SymbolicWorld, tiny_mission, tiny_scene
+from helpers.planners import FakeScoreClient, ScriptedClient, SymbolicWorld, tiny_mission, tiny_scene
 
 from interllm.config import ConfigError, ExperimentConfig
 from interllm.core.actions import Action, plan_to_list
@@ -63,8 +63,7 @@ def test_initial_candidates_are_m_distinct_feasible_plans_and_deterministic():
 
 
 @pytest.mark.parametrize("name", ["inter_llm", "sayplan", "moma_llm"])
-def test_each_planner_runs_a_mission_end_to_end(name):
-    cfg = ExperimentConfig()
+def test_each_planner_runs_a_mission_end_to_end(name, cfg):
     cfg.llm.temperature = 0.0
     recorder = ListRecorder()
     rec, world = run(name, cfg, recorder=recorder)
@@ -135,8 +134,7 @@ def test_regeneration_bound_with_an_always_infeasible_llm():
     assert rec["commands"][0]["actions"] == [] and s["candidates"] == []
 
 
-def test_sayplan_open_loop_vs_moma_replanning_after_a_failure():
-    cfg = ExperimentConfig()
+def test_sayplan_open_loop_vs_moma_replanning_after_a_failure(cfg):
     cfg.llm.temperature = 0.0
     say, _ = run("sayplan", cfg, hard=("apple_1",))
     moma, _ = run("moma_llm", cfg, hard=("apple_1",))
@@ -150,8 +148,7 @@ def test_sayplan_open_loop_vs_moma_replanning_after_a_failure():
     assert [a["action"]["object"] for a in failed] == ["apple_1"]
 
 
-def test_blocked_navigation_is_skipped_and_recorded():
-    cfg = ExperimentConfig()
+def test_blocked_navigation_is_skipped_and_recorded(cfg):
     cfg.llm.temperature = 0.0
     rec, world = run("sayplan", cfg, blocked=("counter_1",))
     c1 = rec["commands"][0]

@@ -3,7 +3,7 @@
 import json
 
 import pytest
-from test_planners_fakes import FakeScoreClient
+from helpers.planners import FakeScoreClient
 
 from interllm.config import ExperimentConfig, MissionConfig
 from interllm.core.actions import State, plan_from_list

@@ -1,5 +1,4 @@
 import pytest
-from test_planners_fakes import tiny_scene
 
 from interllm.core.actions import Action, State
 from interllm.planning.feasibility import InfeasibleAction, apply, check_plan, simulate_plan
@@ -40,23 +39,23 @@ CASES = [
 
 
 @pytest.mark.parametrize("name,state,plan,rules,index", CASES, ids=[c[0] for c in CASES])
-def test_each_rule_is_triggered_by_a_minimal_plan(name, state, plan, rules, index):
-    rep = check_plan(tuple(plan), tiny_scene(), state)
+def test_each_rule_is_triggered_by_a_minimal_plan(name, state, plan, rules, index, tiny_scene):
+    rep = check_plan(tuple(plan), tiny_scene, state)
     assert not rep.valid
     assert {v.rule for v in rep.violations} == rules
     assert rep.violations[0].index == index
 
 
-def test_violation_text_is_actionable():
-    rep = check_plan((nav("sofa_1", "living_room_1"), pick("apple_1", "counter_1")), tiny_scene(), AT_COUNTER)
+def test_violation_text_is_actionable(tiny_scene):
+    rep = check_plan((nav("sofa_1", "living_room_1"), pick("apple_1", "counter_1")), tiny_scene, AT_COUNTER)
     assert rep.violations[0].text == ("step 2 pickup(apple_1, counter_1): the robot is at sofa_1; navigate "
                                       "to counter_1 first (navigate(counter_1, kitchen_1))")
-    rep = check_plan((nav("sofa_1", "garage_9"),), tiny_scene(), AT_COUNTER)
+    rep = check_plan((nav("sofa_1", "garage_9"),), tiny_scene, AT_COUNTER)
     assert "kitchen_1" in rep.violations[0].text  # lists valid rooms
 
 
-def test_valid_multistep_plan_applies_effects_in_sequence():
-    scene = tiny_scene()
+def test_valid_multistep_plan_applies_effects_in_sequence(tiny_scene):
+    scene = tiny_scene
     plan = (pick("apple_1", "counter_1"), nav("sofa_1", "living_room_1"), place("apple_1", "sofa_1"),
             pick("apple_1", "sofa_1"))  # picking it again from its NEW place is valid
     rep = check_plan(plan, scene, AT_COUNTER)
@@ -69,15 +68,15 @@ def test_valid_multistep_plan_applies_effects_in_sequence():
     assert [v.rule for v in rep.violations] == ["object_not_on_furniture"] and rep.violations[0].index == 4
 
 
-def test_optimistic_effects_do_not_cascade():
+def test_optimistic_effects_do_not_cascade(tiny_scene):
     # wrong pickup location (one violation); the later place of the same object is not flagged again
     plan = (pick("apple_1", "counter_1"), nav("sofa_1", "living_room_1"), place("apple_1", "sofa_1"))
-    rep = check_plan(plan, tiny_scene(), State("desk_1", "living_room_1"))
+    rep = check_plan(plan, tiny_scene, State("desk_1", "living_room_1"))
     assert [v.rule for v in rep.violations] == ["pickup_not_at_furniture"]
 
 
-def test_apply_is_strict_and_pure():
-    scene = tiny_scene()
+def test_apply_is_strict_and_pure(tiny_scene):
+    scene = tiny_scene
     s2, st2 = apply(pick("apple_1", "counter_1"), scene, AT_COUNTER)
     assert st2.holding == "apple_1" and s2 is not scene
     s3, st3 = apply(place("apple_1", "counter_1"), s2, st2)

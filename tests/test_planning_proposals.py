@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from test_planners_fakes import FakeScoreClient, ScriptedClient, tiny_mission, tiny_scene
+from helpers.planners import FakeScoreClient, ScriptedClient, tiny_mission, tiny_scene
 
 from interllm.config import ExperimentConfig
 from interllm.core.actions import Action, State
@@ -57,8 +57,7 @@ def test_assembled_plans_are_feasible_and_skip_redundant_navigation():
     assert [str(a) for a in held] == ["navigate(sofa_1, living_room_1)", "place(apple_1, sofa_1)"]
 
 
-def test_score_command_with_fake_scorer_ranks_by_the_command():
-    cfg = ExperimentConfig()
+def test_score_command_with_fake_scorer_ranks_by_the_command(cfg):
     sc = scoring.score_command(FakeScoreClient(), tiny_scene(), tiny_mission().commands[0], cfg.llm)
     top = sorted(sc.instances, key=lambda o: -sc.instances[o])[:2]
     assert set(top) == {"apple_1", "banana_1"}

@@ -12,7 +12,7 @@ import pytest
 from foxglove_schemas_protobuf.Grid_pb2 import Grid
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
-from test_record_helpers import JOINTS, make_actions, make_grids, make_scene, rerun_cli, run_cli, write_run
+from helpers.recording import JOINTS, make_actions, make_grids, make_scene, rerun_cli, run_cli, write_run
 
 from interllm.record import ACTION_SCHEMA, McapRecorder, read_run
 

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_record_helpers import make_actions, rerun_cli, run_cli, write_run
+from helpers.recording import make_actions, rerun_cli, run_cli, write_run
 
 from interllm.record import read_run, replay, replay_main
 
@@ -65,7 +65,7 @@ def test_folder_replay_default_saves_next_to_each_run(tmp_path, capsys):
 def test_sigkill_mid_run_leaves_readable_prefix_and_replay_says_where(tmp_path):
     out = tmp_path / "killed.mcap"
     env = {**os.environ, "PYTHONPATH": f"{REPO}{os.pathsep}{REPO / 'tests'}"}
-    proc = subprocess.Popen([sys.executable, str(REPO / "tests" / "test_record_helpers.py"), str(out), "9", "4"],
+    proc = subprocess.Popen([sys.executable, str(REPO / "tests" / "helpers" / "recording.py"), str(out), "9", "4"],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
     try:
         lines = []

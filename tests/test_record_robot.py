@@ -11,7 +11,7 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
-from test_record_helpers import make_actions, make_scene, rerun_cli, run_cli
+from helpers.recording import make_actions, make_scene, rerun_cli, run_cli
 from test_sim_world import house, mission, nav
 
 from interllm.config import SimConfig
@@ -308,7 +308,7 @@ def test_replay_nests_the_arm_and_carries_the_object(carried, tmp_path):
 
 
 def test_trajectory_figure_from_run_logs(carried, tmp_path):
-    from test_record_helpers import write_run
+    from helpers.recording import write_run
 
     from interllm.record.figures import mission_trajectories_figure
 

@@ -83,7 +83,7 @@ def _generated_objects_update(objects, state, t_ns, frames) -> bytes:
 
 
 def test_objects_updates_are_the_bytes_of_the_generated_message_as_objects_move():
-    from test_record_helpers import make_scene
+    from helpers.recording import make_scene
 
     from interllm.record.foxglove import ObjectsUpdates
 

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from test_planners_fakes import SymbolicWorld, tiny_mission, tiny_scene
+from helpers.planners import SymbolicWorld, tiny_mission, tiny_scene
 from test_planners_symbolic import run
 
 from interllm.config import ExperimentConfig, LLMConfig

@@ -1,7 +1,7 @@
 """Bad input and bad environments: each case ends in one message that names the problem and the
 fix, within a bound, and loses nothing already written (issue: results a stranger can trust).
 
-Protocol cases run against a fake Ollama server on 127.0.0.1 (tests/ollama_fixture.py)."""
+Protocol cases run against a fake Ollama server on 127.0.0.1 (tests/helpers/ollama_server.py)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from ollama_fixture import FakeOllama, free_port  # noqa: E402
+from helpers.ollama_server import FakeOllama, free_port  # noqa: E402
 
 from interllm.config import ConfigError, ExperimentConfig, LLMConfig, from_dict  # noqa: E402
 from interllm.llm import LLMRequest, Message, make_client  # noqa: E402
@@ -418,7 +418,7 @@ def test_report_on_missing_sweeps_folder_exits_nonzero(tmp_path):
 
 
 def test_replay_of_a_folder_converts_what_it_can_and_lists_the_rest(tmp_path):
-    from test_record_helpers import rerun_cli, write_run
+    from helpers.recording import rerun_cli, write_run
 
     if rerun_cli() is None:
         pytest.skip("rerun CLI not installed")

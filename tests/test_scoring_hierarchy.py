@@ -4,7 +4,7 @@ expanding only what scored best (``planning.scoring.expanded_objects``)."""
 from __future__ import annotations
 
 import pytest
-from test_planners_fakes import FakeScoreClient
+from helpers.planners import FakeScoreClient
 
 from interllm.config import ExperimentConfig
 from interllm.planning import scoring

@@ -1,5 +1,5 @@
 """What a planner may see and do of the world: the written type both the MuJoCo world
-(``interllm.sim.world.World``) and the symbolic test world (tests/test_planners_fakes.py) satisfy."""
+(``interllm.sim.world.World``) and the symbolic test world (tests/helpers/planners.py) satisfy."""
 
 from __future__ import annotations
 

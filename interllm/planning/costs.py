@@ -4,11 +4,11 @@
 - ``decode_cost``: f_de = hard 20, medium 10, easy 5, unknown 0.
 - ``estimate_navigation``: ĉ(a_nav) from the presumed path p_pre and the known navigations
   (p_i, c_i) ∈ C^naved, with mode
-    * ``paper_sum`` (default, the paper's eq. 8): ĉ = Σ_i c_i · P°(p_pre, p_i). Unnormalised: it
+    * ``paper_sum`` (the paper's eq. 8): ĉ = Σ_i c_i · P°(p_pre, p_i). Unnormalised: it
       grows with the history and is 0 for a path that overlaps no known path.
     * ``weighted_mean``: ĉ = Σ_i c_i·P° / Σ_i P°, a similarity-weighted mean of the known costs
       (same units as c_nav). When Σ P° = 0 (no known path overlaps) it falls back as below.
-    * ``prior`` (ours; no novelty bias): ĉ = L · (r_0 + Σ_i w_i r_i) / (1 + Σ_i w_i), with L the
+    * ``prior`` (ours, ``planner.nav_estimate``'s default; no novelty bias): ĉ = L · (r_0 + Σ_i w_i r_i) / (1 + Σ_i w_i), with L the
       presumed path's length [m], r_i = c_i / L_i the known cost per metre, w_i = P°/200 ∈ [0, 1],
       and r_0 = 1/base_speed + 1 the presumed path's own cost per metre (no collision) as a prior of
       weight 1: a new path costs what its length says, a path like one that collided costs more.

@@ -1,6 +1,6 @@
 """Hand-made scene, actions and trajectories shared by the record tests (no tests here).
 
-Also runnable as a script: ``python tests/test_record_helpers.py OUT.mcap N_ACTIONS`` writes a
+Also runnable as a script: ``python tests/helpers/recording.py OUT.mcap N_ACTIONS`` writes a
 run action by action, printing "ACTION k" after each one is flushed (the SIGKILL test).
 """
 
@@ -106,7 +106,7 @@ def write_run(path, n: int = 6, samples: int = 40, **kw) -> tuple[list, dict]:
 
 
 if __name__ == "__main__":
-    # python tests/test_record_helpers.py OUT.mcap N_ACTIONS STOP_AFTER: after STOP_AFTER actions, log
+    # python tests/helpers/recording.py OUT.mcap N_ACTIONS STOP_AFTER: after STOP_AFTER actions, log
     # a few events that stay in the unfinished chunk and block on stdin until killed.
     out, n, stop_after = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     scene = make_scene()

@@ -5,7 +5,7 @@ The answers depend on the llama.cpp build (its SIMD kernels round differently), 
 records the build that made it. Regenerate it only on purpose (a new llama-cpp-python pin, a new
 baseline), on the pinned build (``make install``), and commit it with the results it moves:
 
-    .venv/bin/python tests/llm_golden.py
+    .venv/bin/python tests/helpers/llm_golden.py
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import json
 import sys
 from pathlib import Path
 
-GOLDEN = Path(__file__).parent / "golden" / "llm_embedded.json"
+GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "llm_embedded.json"
 
 _ROOMS = "; ".join(f"room {i}: a table, a shelf, a sofa and a chair" for i in range(6))
 SCORE_CASES = [  # (prompt, continuations): a short prompt, one over several 64-token chunks, two groups
@@ -60,7 +60,7 @@ def compute() -> dict:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
     GOLDEN.parent.mkdir(exist_ok=True)
     GOLDEN.write_text(json.dumps(compute(), indent=1, sort_keys=True) + "\n", encoding="utf-8")
     print(f"wrote {GOLDEN}")
