@@ -20,15 +20,19 @@ import time
 import numpy as np
 
 from interllm.scene import generate_scene, scene_config
-from interllm.scene import generator as g
+from interllm.scene.build_state import BuildState
+from interllm.scene.catalog import load_catalog
+from interllm.scene.floor_plans import grid_plan
+from interllm.scene.furnishing import place_all_furniture
+from interllm.scene.surface_objects import place_legacy_objects
 
 
 def layout_only(cfg, index):
     rng = np.random.default_rng([cfg.seed + index, 0])
-    b = g._Build(g.load_catalog(), cfg, rng, 0.25)
-    g._floor_plan(b)
-    g._place_all_furniture(b)
-    g._place_all_objects(b)
+    b = BuildState(load_catalog(), cfg, rng, 0.25)
+    grid_plan(b)
+    place_all_furniture(b)
+    place_legacy_objects(b)
     return b
 
 

@@ -26,6 +26,17 @@ def rects_overlap(a, b) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
+def point_in_polygon(poly, x: float, y: float) -> bool:
+    """True when (x, y) [m] lies inside the polygon [(x, y), ...] (even-odd rule)."""
+    inside = False
+    n = len(poly)
+    for i in range(n):
+        (ax, ay), (bx, by) = poly[i], poly[(i + 1) % n]
+        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
+            inside = not inside
+    return inside
+
+
 def free_edges(scene_or_interior, furniture: Furniture, wall_tol: float = 0.3) -> tuple[str, ...]:
     """Sides ("S", "N", "W", "E") of a furniture footprint that face free floor, not a wall.
 

@@ -85,11 +85,15 @@ class OccupancyGrid:
         return {"presumed": presumed, "true": true}
 
 
-def _fill_box(occ: np.ndarray, origin, res, x0, y0, x1, y1, pad: float) -> None:
-    c0 = int(np.floor((x0 - pad - origin[0]) / res))
-    c1 = int(np.ceil((x1 + pad - origin[0]) / res))
-    r0 = int(np.floor((y0 - pad - origin[1]) / res))
-    r1 = int(np.ceil((y1 + pad - origin[1]) / res))
+def _fill_box(occ: np.ndarray, origin: tuple[float, float], res: float, box: tuple[float, float, float, float]
+              ) -> None:
+    """Set the cells of ``occ`` (grid origin [m], ``res`` [m/cell]) that the rectangle ``box``
+    (x0, y0, x1, y1) [m] touches."""
+    x0, y0, x1, y1 = box
+    c0 = int(np.floor((x0 - origin[0]) / res))
+    c1 = int(np.ceil((x1 - origin[0]) / res))
+    r0 = int(np.floor((y0 - origin[1]) / res))
+    r1 = int(np.ceil((y1 - origin[1]) / res))
     occ[max(r0, 0):max(r1, 0), max(c0, 0):max(c1, 0)] = True
 
 
@@ -112,15 +116,14 @@ def rasterize(scene: SceneGraph, resolution: float = 0.05, robot_radius: float =
     # Outside every room is occupied.
     inside = np.zeros_like(occ)
     for r in scene.rooms.values():
-        rx0, ry0, rx1, ry1 = r.bounds
-        _fill_box(inside, origin, resolution, rx0, ry0, rx1, ry1, 0.0)
+        _fill_box(inside, origin, resolution, r.bounds)
     occ |= ~inside
     for w in scene.walls.values():
         t = w.thickness / 2
-        _fill_box(occ, origin, resolution, min(w.start[0], w.end[0]) - t, min(w.start[1], w.end[1]) - t,
-                  max(w.start[0], w.end[0]) + t, max(w.start[1], w.end[1]) + t, 0.0)
+        _fill_box(occ, origin, resolution, (min(w.start[0], w.end[0]) - t, min(w.start[1], w.end[1]) - t,
+                                            max(w.start[0], w.end[0]) + t, max(w.start[1], w.end[1]) + t))
     for f in scene.furniture.values():
-        _fill_box(occ, origin, resolution, *f.footprint, 0.0)
+        _fill_box(occ, origin, resolution, f.footprint)
     if doors == "true":
         for d in scene.doors.values():
             seg = d.leaf_segment()
@@ -128,8 +131,8 @@ def rasterize(scene: SceneGraph, resolution: float = 0.05, robot_radius: float =
                 continue
             (ax, ay), (bx, by) = seg
             t = 0.03
-            _fill_box(occ, origin, resolution, min(ax, bx) - t, min(ay, by) - t,
-                      max(ax, bx) + t, max(ay, by) + t, 0.0)
+            _fill_box(occ, origin, resolution,
+                      (min(ax, bx) - t, min(ay, by) - t, max(ax, bx) + t, max(ay, by) + t))
     if inflate and robot_radius > 0:
         rad = int(np.ceil(robot_radius / resolution))
         yy, xx = np.mgrid[-rad:rad + 1, -rad:rad + 1]

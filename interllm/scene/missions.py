@@ -9,7 +9,7 @@ facing it.
 
 Which commands a scene supports (``mission.feasibility``):
 - ``off`` (or no measurement given): target furniture present and ``objects_per_command`` valid
-  objects (right category, not on a target), reachable or not — the earlier, unchecked draw;
+  objects (right category, not on a target), reachable or not: the unchecked draw;
 - ``measured``: ``Fulfillable``, the simulator's measurement made by the scenes stage
   (``interllm.stages.feasibility``), says which instances a planner can deliver per command and
   how many objects its targets take. Commands are drawn among those it can fill with
@@ -204,9 +204,10 @@ def draw_missions(scene: SceneGraph, cfg: MissionConfig, robot_radius: float = 0
         rng = np.random.default_rng(mission_seed(scene.id, cfg.seed, i))
         wanted = paper if i == 0 and cfg.include_paper_mission else []
         if measured:
-            ids = _measured_commands(scene.id, i, ok, wanted, cfg.commands_per_mission, k, rng, fulfillable)
+            ids = _measured_commands(scene.id, i, ok, wanted, n=cfg.commands_per_mission, k=k, rng=rng,
+                                     fulfillable=fulfillable)
         else:
-            ids = _mission_commands(scene.id, i, ok, wanted, cfg.commands_per_mission, k, rng)
+            ids = _mission_commands(scene.id, i, ok, wanted, n=cfg.commands_per_mission, k=k, rng=rng)
         fills = _fills(scene.id, i, ids, k, fulfillable, measured)
         fids = sorted(starts)
         start_f = fids[int(rng.integers(len(fids)))]
@@ -263,7 +264,7 @@ def _fits(ids: Sequence[str], k: int, fulfillable: Fulfillable) -> bool:
     return all(len(got) >= n for got, (_, n) in zip(match_slots(demands), demands, strict=True))
 
 
-def _measured_commands(scene_id: str, index: int, ok: list[str], wanted: list[str], n: int, k: int,
+def _measured_commands(scene_id: str, index: int, ok: list[str], wanted: list[str], *, n: int, k: int,
                        rng: np.random.Generator, fulfillable: Fulfillable) -> list[str]:
     """The command ids of mission ``index`` under the measurement, among ``ok`` (those it fills with at
     least one object): the ``wanted`` ones (the paper's) it fills with k objects, the others replaced
@@ -319,7 +320,7 @@ def _fills(scene_id: str, index: int, ids: list[str], k: int, fulfillable: Fulfi
     return out
 
 
-def _mission_commands(scene_id: str, index: int, ok: list[str], wanted: list[str], n: int, k: int,
+def _mission_commands(scene_id: str, index: int, ok: list[str], wanted: list[str], *, n: int, k: int,
                       rng: np.random.Generator) -> list[str]:
     """The command ids of mission ``index``: the ``wanted`` ones (the paper's) the house can host, the
     others replaced by supported catalog commands (one log line says which and why), or ``n`` drawn

@@ -21,7 +21,7 @@ from interllm.scene.grid import OccupancyGrid
 PLACEMENT_COLORS = {"front": "#2a9d8f", "deep": "#e9c46a", "high": "#9b5de5", "clutter": "#f4a261"}
 
 
-def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[OccupancyGrid] = None,
+def render_topdown(scene: SceneGraph, path_png: str | Path, *, grid: Optional[OccupancyGrid] = None,
                    paths: Optional[Sequence[Sequence[Sequence[float]]] | Mapping[str, Sequence]] = None,
                    dpi: int = 100, labels: bool = True, narrow_width: float = 0.9,
                    markers: Sequence[tuple[float, float, str, str]] = (), title: Optional[str] = None,
@@ -32,13 +32,15 @@ def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[Occup
     paths: optional robot paths, each a sequence of (x, y) [m]; a mapping {label: path} draws a
         legend (``colors``: {label: matplotlib colour}).
     markers: (x [m], y [m], matplotlib marker, colour) drawn on top (e.g. grasps and releases).
+    dpi: pixels per inch; the figure is sized at most 0.6 inch per metre (30 x 30 inches at most).
+    labels: write the room and furniture ids.
     narrow_width: doors narrower than this [m] are drawn as narrow.
+    title: default: the scene id and its numbers of rooms, furniture and objects.
     """
     import matplotlib  # lazy: heavy, only when a picture is drawn
 
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure  # lazy: heavy, only when a picture is drawn
-    from matplotlib.patches import Rectangle  # lazy: heavy, only when a picture is drawn
 
     x0, y0, x1, y1 = scene.bounds
     w, h = x1 - x0, y1 - y0
@@ -50,10 +52,30 @@ def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[Occup
     ax.set_ylim(y0 - 0.3, y1 + 0.3)
     font = 6 if len(scene.rooms) <= 12 else 3
     if grid is not None:
-        gx0, gy0 = grid.origin
-        ext = (gx0, gx0 + grid.shape[1] * grid.resolution, gy0, gy0 + grid.shape[0] * grid.resolution)
-        ax.imshow(np.where(grid.occupied, 0.8, 1.0), origin="lower", extent=ext, cmap="gray", vmin=0, vmax=1,
-                  interpolation="nearest", zorder=0)
+        _draw_grid(ax, grid)
+    _draw_house(ax, scene, labels=labels, font=font, narrow_width=narrow_width)
+    _draw_paths(ax, paths, markers, colors)
+    ax.set_title(title or f"{scene.id}: {len(scene.rooms)} rooms, {len(scene.furniture)} furniture, "
+                 f"{len(scene.objects)} objects", fontsize=8)
+    ax.tick_params(labelsize=6)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    atomic_write_bytes(path_png, buf.getvalue())
+
+
+def _draw_grid(ax, grid: OccupancyGrid) -> None:
+    """The occupied cells of ``grid`` in grey, underneath everything."""
+    gx0, gy0 = grid.origin
+    ext = (gx0, gx0 + grid.shape[1] * grid.resolution, gy0, gy0 + grid.shape[0] * grid.resolution)
+    ax.imshow(np.where(grid.occupied, 0.8, 1.0), origin="lower", extent=ext, cmap="gray", vmin=0, vmax=1,
+              interpolation="nearest", zorder=0)
+
+
+def _draw_house(ax, scene: SceneGraph, *, labels: bool, font: int, narrow_width: float) -> None:
+    """Rooms (outlines, ids), walls, doors (red: partly closed, with the leaf; orange: narrower than
+    ``narrow_width`` [m]), furniture (hatched red: unreachable) and objects (by placement label)."""
+    from matplotlib.patches import Rectangle  # lazy: heavy, only when a picture is drawn
+
     for r in sorted(scene.rooms.values(), key=lambda r: r.id):
         poly = np.array(r.polygon + (r.polygon[0],))
         ax.plot(poly[:, 0], poly[:, 1], color="#cccccc", lw=0.5, zorder=1)
@@ -85,6 +107,11 @@ def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[Occup
         xy = np.array([o.position[:2] for o in objs])
         ax.scatter(xy[:, 0], xy[:, 1], s=6, c=[PLACEMENT_COLORS.get(o.placement, "k") for o in objs],
                    zorder=7, linewidths=0)
+
+
+def _draw_paths(ax, paths, markers: Sequence[tuple[float, float, str, str]],
+                colors: Optional[Mapping[str, str]]) -> None:
+    """Robot paths (a legend when ``paths`` is a mapping {label: path}) and the markers, on top."""
     named = paths.items() if isinstance(paths, Mapping) else [(None, p) for p in paths or []]
     lines = []
     for label, p in named:
@@ -96,9 +123,3 @@ def render_topdown(scene: SceneGraph, path_png: str | Path, grid: Optional[Occup
         ax.scatter([x], [y], marker=marker, s=28, c=color, edgecolors="black", linewidths=0.4, zorder=9)
     if isinstance(paths, Mapping) and lines:
         ax.legend(handles=lines, fontsize=6, loc="upper right", framealpha=0.9).set_zorder(20)
-    ax.set_title(title or f"{scene.id}: {len(scene.rooms)} rooms, {len(scene.furniture)} furniture, "
-                 f"{len(scene.objects)} objects", fontsize=8)
-    ax.tick_params(labelsize=6)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", metadata={"Software": None})
-    atomic_write_bytes(path_png, buf.getvalue())

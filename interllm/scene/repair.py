@@ -7,7 +7,7 @@ box. Instead of rejecting the whole house for one such item, the importer
 - checks a parent's footprint against its ``rotation.y`` and its ``axisAlignedBoundingBox`` when a child
   lies off it (``choose_footprint``), and uses the one its children lie over;
 - puts a child still far off its parent on the nearest supporting surface within
-  ``CHILD_SURFACE_BOUND``, else on a patch of floor under it, else drops it (``relocate_child``);
+  ``CHILD_SURFACE_BOUND``, else on a patch of floor under it, else drops it (``place_stray_child``);
 - keeps furniture the robot cannot reach (and the objects on it), marked unreachable with the reason
   (``mark_unreachable``), so that missions leave them out;
 - then rejects the house only when no command of the catalog can be hosted (``reject_unhostable``).
@@ -23,7 +23,7 @@ from collections.abc import Callable
 from typing import Optional, Protocol
 
 from interllm.scene.catalog import Catalog
-from interllm.scene.geometry import r4
+from interllm.scene.geometry import point_in_polygon, r4
 from interllm.scene.graph import Furniture, Room, SceneGraph
 from interllm.scene.grid import rasterize
 from interllm.scene.reachability import REACH_MARGIN, unreachable
@@ -109,7 +109,7 @@ def child_points(children: list) -> list[tuple[float, float]]:
     return out
 
 
-def place_stray_child(craw: str, cp: str, at: tuple[float, float], size: tuple[float, float],
+def place_stray_child(craw: str, cp: str, at: tuple[float, float], size: tuple[float, float], *,
                       world: tuple[dict, dict], cat: Catalog, new_id: Callable[[str], str],
                       rep: Report) -> Optional[Furniture]:
     """Where a child more than ``CHILD_SLACK`` off its parent goes (``craw``: its file id, ``cp``: its
@@ -145,14 +145,6 @@ def supporting_surface(furniture: dict[str, Furniture], cat: Catalog, x: float, 
     return furniture[min(near)[1]] if near else None
 
 
-def _inside(poly, x: float, y: float) -> bool:
-    inside = False
-    for (ax, ay), (bx, by) in zip(poly, list(poly[1:]) + [poly[0]], strict=True):
-        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
-            inside = not inside
-    return inside
-
-
 def floor_patch(fid: str, rooms: dict[str, Room], furniture: dict[str, Furniture], x: float, y: float,
                 size: tuple[float, float]) -> Optional[Furniture]:
     """A thin ``floor`` furniture under a child at (x, y) with box ``size`` (x, y extents [m]), or None
@@ -160,7 +152,8 @@ def floor_patch(fid: str, rooms: dict[str, Room], furniture: dict[str, Furniture
     sx, sy = size[0] + 2 * FLOOR_PATCH_MARGIN, size[1] + 2 * FLOOR_PATCH_MARGIN
     x0, y0, x1, y1 = _rect((x, y), (sx, sy))
     corners = ((x0, y0), (x1, y0), (x1, y1), (x0, y1))
-    room = next((rid for rid, r in sorted(rooms.items()) if all(_inside(r.polygon, *c) for c in corners)), None)
+    room = next((rid for rid, r in sorted(rooms.items())
+                 if all(point_in_polygon(r.polygon, *c) for c in corners)), None)
     if room is None or any(_overlap((x0, y0, x1, y1), f.footprint) > 0 for f in furniture.values()):
         return None
     return Furniture(fid, FLOOR_CATEGORY, room, (r4(x), r4(y)), (r4(sx), r4(sy), FLOOR_PATCH_HEIGHT),
@@ -225,7 +218,7 @@ def hosting_problems(scene: SceneGraph, cat: Catalog, n_objects: int) -> list[st
 def reject_unhostable(scene: SceneGraph, cat: Catalog, source: str, n_objects: int) -> None:
     """Raise ``SceneValidationError`` for a house none of whose commands can be hosted with ``n_objects``
     reachable objects, saying what each command lacks (called when furniture was marked unreachable; a
-    house with all furniture reachable is left to the missions stage, as before)."""
+    house with all furniture reachable is left to the missions stage)."""
     problems = hosting_problems(scene, cat, n_objects)
     if problems:
         raise SceneValidationError(source, "$.objects", f"no command of the catalog can be hosted with {n_objects} "
