@@ -107,7 +107,7 @@ def _report(args) -> int:
     missing = [s for s in args.sweeps if not Path(s).is_dir()]
     if missing:
         print(f"interllm report: error: --sweeps folder(s) {missing} do not exist; run the multiruns first "
-              f"(README: Configuration and ablations) or pass the folders they wrote", file=sys.stderr)
+              f"(docs/configuration.md) or pass the folders they wrote", file=sys.stderr)
         return 2
     if not (data / "metrics" / "metrics.json").is_file():
         print(f"interllm report: error: {data / 'metrics' / 'metrics.json'} is missing; run `make repro` "

@@ -26,8 +26,8 @@ from interllm.errors import UserError
 CACHE_MODES = ("readwrite", "replay", "off")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean", "prior")  # interllm/planning/costs.py
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
-SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/generator.py, interllm/scene/floor_plans.py)
-OBJECT_DESIGNS = ("graded", "legacy")  # scene.object_design (interllm/scene/generator.py)
+SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/floor_plans.py)
+OBJECT_DESIGNS = ("graded", "legacy")  # scene.object_design (interllm/scene/graded_objects.py, surface_objects.py)
 MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stages/feasibility.py)
 ORACLE_COSTS = ("classes", "numeric")  # llm.oracle_costs (interllm/planning/oracle.py)
 COST_ENCODINGS = ("paper", "expected")  # planner.cost_encoding (interllm/planning/costs.py)
@@ -72,7 +72,7 @@ class SceneConfig:
     wall_thickness: float = 0.1  # [m]
     wall_height: float = 2.5  # [m]
     grid_resolution: float = 0.05  # [m] per occupancy cell
-    import_path: Optional[str] = None  # a user scene (our JSON or ProcTHOR house JSON)
+    import_path: Optional[str] = None  # a user scene in our JSON (a ProcTHOR house: `interllm scene import-procthor` first)
 
     def validate(self) -> None:
         _choice(self.name, "scene.name", SCENE_SIZES)

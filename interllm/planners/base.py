@@ -7,7 +7,7 @@ implementation per mode), the known-cost memory, the recorder and its config (``
 
 Adding a planner: one module with a class decorated ``@PLANNERS.register("<name>", label="<Name>")``
 that has ``run_command(command, ctx) -> CommandResult``, imported by ``interllm/planners/__init__.py``,
-and one config file ``conf/planner/<name>.yaml`` (see the README's "Adding a planner").
+and one config file ``conf/planner/<name>.yaml`` (see docs/extending.md).
 """
 
 from __future__ import annotations
