@@ -1,11 +1,10 @@
 """Test session set-up. Importing interllm first pins the numerical environment (BLAS kernel and
 threads, numpy's SIMD targets) before any test module imports numpy: see interllm/numerics.py."""
 
-import interllm  # noqa: F401  (must stay the first import: it pins the numerics before numpy loads)
+import interllm  # noqa: F401, I001  (must stay the first import: it pins the numerics before numpy loads)
+import pytest
 
-import pytest  # noqa: E402  (after interllm, see above)
-
-from interllm.config import ExperimentConfig  # noqa: E402
+from interllm.config import ExperimentConfig
 
 
 @pytest.fixture

@@ -256,7 +256,7 @@ def test_4_a_read_only_or_full_disk_in_a_stage_is_one_message(tmp_path, monkeypa
 
 
 def test_4_a_read_only_data_folder_stops_the_scenes_stage_with_one_message(tmp_path):
-    from test_robustness import _make_read_only, _undo_read_only
+    from helpers.files import make_read_only, undo_read_only
 
     scenes = tmp_path / "data" / "scenes"
     scenes.mkdir(parents=True)
@@ -264,11 +264,11 @@ def test_4_a_read_only_data_folder_stops_the_scenes_stage_with_one_message(tmp_p
     (tmp_path / "params.yaml").write_text(json.dumps({
         "data_dir": str(tmp_path / "data"), "scene": {"name": "tiny", "n_scenes": 1},
         "llm": {"backend": "oracle", "proposal_mode": "oracle", "cost_inference_mode": "oracle"}}))
-    undo = _make_read_only([scenes])
+    undo = make_read_only([scenes])
     try:
         r = _run("pipeline.scenes", "--params", str(tmp_path / "params.yaml"), timeout=300)
     finally:
-        _undo_read_only(undo)
+        undo_read_only(undo)
         scenes.chmod(0o755)
     assert r.returncode == 2 and "Traceback" not in r.stderr and "unexpected error" not in r.stderr
     assert r.stderr.startswith("error: stage 'scenes': ") and f" {scenes}/" in r.stderr

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from helpers.planners import FakeScoreClient, SymbolicWorld, tiny_mission, tiny_scene
-from test_sim_poses import kitchen
+from helpers.scenes import kitchen
 
 from interllm.config import ExperimentConfig, SimConfig
 from interllm.core.actions import Action

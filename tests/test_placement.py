@@ -8,7 +8,7 @@ import json
 import re
 
 import pytest
-from test_sim_poses import kitchen
+from helpers.scenes import kitchen
 
 from interllm.config import ExperimentConfig, MissionConfig
 from interllm.scene.graph import Furniture

@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers.planners import FakeScoreClient, SymbolicWorld, tiny_scene
-from test_planners_symbolic import ListRecorder
-from test_sim_world import START, house, mission, nav
+from helpers.planners import FakeScoreClient, ListRecorder, SymbolicWorld, tiny_scene
+from helpers.scenes import START, house, mission, nav
 
 from interllm.config import ExperimentConfig, SimConfig
 from interllm.planners.candidates import generate_initial_candidates

@@ -3,7 +3,15 @@
 import json
 
 import pytest
-from helpers.planners import FakeScoreClient, ScriptedClient, SymbolicWorld, tiny_mission, tiny_scene
+from helpers.planners import (
+    FakeScoreClient,
+    ListRecorder,
+    ScriptedClient,
+    SymbolicWorld,
+    run_tiny_mission,
+    tiny_mission,
+    tiny_scene,
+)
 
 from interllm.config import ConfigError, ExperimentConfig
 from interllm.core.actions import Action, plan_to_list
@@ -12,36 +20,11 @@ from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
 
 
-class ListRecorder:
-    def __init__(self):
-        self.events, self.actions, self.logs = [], [], []
-
-    def event(self, topic, t, payload):
-        json.dumps(payload)  # must be JSON-able
-        self.events.append((topic, t, payload))
-
-    def action(self, result, context):
-        self.actions.append((result, context))
-
-    def log(self, t, level, message):
-        self.logs.append((t, level, message))
-
-
 def cfg_for(**planner):
     cfg = ExperimentConfig()
     for k, v in planner.items():
         setattr(cfg.planner, k, v)
     return cfg
-
-
-def run(name, cfg=None, hard=(), blocked=(), client=None, cands=None, recorder=None):
-    cfg = cfg or ExperimentConfig()
-    scene, mission = tiny_scene(), tiny_mission()
-    client = client or FakeScoreClient()
-    cands = cands if cands is not None else generate_initial_candidates(scene, mission, client, cfg)
-    world = SymbolicWorld(scene, cfg.sim, hard, blocked)
-    rec = run_mission(name, world, mission, cands, client, cfg, recorder=recorder or ListRecorder()).to_dict()
-    return rec, world
 
 
 def test_registry_has_the_three_planners():
@@ -66,7 +49,7 @@ def test_initial_candidates_are_m_distinct_feasible_plans_and_deterministic():
 def test_each_planner_runs_a_mission_end_to_end(name, cfg):
     cfg.llm.temperature = 0.0
     recorder = ListRecorder()
-    rec, world = run(name, cfg, recorder=recorder)
+    rec, world = run_tiny_mission(name, cfg, recorder=recorder)
     assert rec["planner"] == name and rec["mission_id"] == "m000" and rec["scene_id"] == "tiny"
     assert [c["command_id"] for c in rec["commands"]] == ["breakfast", "reading"]
     c1 = rec["commands"][0]
@@ -84,8 +67,8 @@ def test_each_planner_runs_a_mission_end_to_end(name, cfg):
 
 
 def test_runs_are_deterministic():
-    a, _ = run("inter_llm")
-    b, _ = run("inter_llm")
+    a, _ = run_tiny_mission("inter_llm")
+    b, _ = run_tiny_mission("inter_llm")
     assert json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
 
 
@@ -99,7 +82,7 @@ def test_inter_llm_selects_the_cheapest_candidate_and_estimates():
     cands = generate_initial_candidates(scene, mission, FakeScoreClient(), ExperimentConfig())
     cands["breakfast"] = [plan_to_list(tuple(far)), plan_to_list(tuple(near))]
     recorder = ListRecorder()
-    rec, _ = run("inter_llm", cands=cands, recorder=recorder)
+    rec, _ = run_tiny_mission("inter_llm", cands=cands, recorder=recorder)
     s1 = rec["commands"][0]["summary"]
     assert s1["selected_plan"] == plan_to_list(tuple(near))
     assert len(s1["estimated_costs"]) == 2 and s1["estimated_costs"][1] < s1["estimated_costs"][0]
@@ -124,7 +107,7 @@ def test_regeneration_bound_with_an_always_infeasible_llm():
     purposes = [r.purpose for r in client.requests]
     assert purposes.count("candidates") == cfg.planner.M * len(mission.commands)
     assert purposes.count("rooms_for_candidates") == (1 + cfg.llm.room_widenings) * len(mission.commands)
-    rec, world = run("inter_llm", cfg, client=client, cands=cands)
+    rec, world = run_tiny_mission("inter_llm", cfg, client=client, cands=cands)
     s = rec["commands"][0]["summary"]
     assert s["dropped_candidates"] == cfg.planner.M
     assert s["regenerations"] == cfg.planner.M * 2
@@ -136,8 +119,8 @@ def test_regeneration_bound_with_an_always_infeasible_llm():
 
 def test_sayplan_open_loop_vs_moma_replanning_after_a_failure(cfg):
     cfg.llm.temperature = 0.0
-    say, _ = run("sayplan", cfg, hard=("apple_1",))
-    moma, _ = run("moma_llm", cfg, hard=("apple_1",))
+    say, _ = run_tiny_mission("sayplan", cfg, hard=("apple_1",))
+    moma, _ = run_tiny_mission("moma_llm", cfg, hard=("apple_1",))
     s_say, s_moma = say["commands"][0], moma["commands"][0]
     assert s_say["summary"]["replans"] == 0
     assert s_say["final_locations"] == {"banana_1": "dining_table_1"}
@@ -150,7 +133,7 @@ def test_sayplan_open_loop_vs_moma_replanning_after_a_failure(cfg):
 
 def test_blocked_navigation_is_skipped_and_recorded(cfg):
     cfg.llm.temperature = 0.0
-    rec, world = run("sayplan", cfg, blocked=("counter_1",))
+    rec, world = run_tiny_mission("sayplan", cfg, blocked=("counter_1",))
     c1 = rec["commands"][0]
     nav = [a for a in c1["actions"] if a["kind"] == "navigate" and not a["success"]]
     assert nav and nav[0]["collisions"] == 1

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from foxglove_schemas_protobuf.Grid_pb2 import Grid
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
-from mcap.reader import make_reader
 from helpers.recording import JOINTS, make_actions, make_grids, make_scene, rerun_cli, run_cli, write_run
+from mcap.reader import make_reader
 
 from interllm.record import ACTION_SCHEMA, McapRecorder, read_run
 

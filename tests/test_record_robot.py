@@ -10,9 +10,9 @@ import pytest
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
-from mcap.reader import make_reader
 from helpers.recording import make_actions, make_scene, rerun_cli, run_cli
-from test_sim_world import house, mission, nav
+from helpers.scenes import house, mission, nav
+from mcap.reader import make_reader
 
 from interllm.config import SimConfig
 from interllm.core.actions import Action

@@ -8,8 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers.planners import SymbolicWorld, tiny_mission, tiny_scene
-from test_planners_symbolic import run
+from helpers.planners import SymbolicWorld, run_tiny_mission, tiny_mission, tiny_scene
 
 from interllm.config import ExperimentConfig, LLMConfig
 from interllm.core.actions import Action, State
@@ -76,14 +75,14 @@ def test_references_are_registered_as_references():
 
 
 def test_nothing_does_nothing():
-    rec, world = run("nothing")
+    rec, world = run_tiny_mission("nothing")
     assert world.executed == [] and all(c["actions"] == [] for c in rec["commands"])
 
 
 def test_optimal_delivers_every_reachable_object_and_skips_the_unreachable():
     # banana_1 can never be picked up: the optimum takes the apple only, and no other planner
     # input (candidates, LLM) matters to it
-    rec, world = run("optimal", hard=("banana_1",))
+    rec, world = run_tiny_mission("optimal", hard=("banana_1",))
     c1 = rec["commands"][0]
     assert c1["final_locations"] == {"apple_1": "dining_table_1"}
     assert not any("banana_1" in a for a in world.executed)
@@ -91,19 +90,17 @@ def test_optimal_delivers_every_reachable_object_and_skips_the_unreachable():
     assert rec["commands"][1]["final_locations"] == {"mug_1": "sofa_1"}
 
 
-def test_optimal_replans_without_an_object_whose_execution_fails():
+def test_optimal_replans_without_an_object_whose_execution_fails(monkeypatch):
     class Liar(SymbolicWorld):  # measures the apple as easy, but its pickup fails
         def measure_manipulation(self, action):
             return super().measure_manipulation(Action(action.kind, action.furniture, obj="x")
                                                 if action.obj == "apple_1" else action)
 
-    import test_planners_symbolic as tps
-    orig = tps.SymbolicWorld
-    tps.SymbolicWorld = lambda scene, sim, hard, blocked: Liar(scene, sim, ("apple_1",), blocked)
-    try:
-        rec, world = run("optimal")
-    finally:
-        tps.SymbolicWorld = orig
+    import helpers.planners
+
+    monkeypatch.setattr(helpers.planners, "SymbolicWorld",
+                        lambda scene, sim, hard, blocked: Liar(scene, sim, ("apple_1",), blocked))
+    rec, world = run_tiny_mission("optimal")
     c1 = rec["commands"][0]
     assert c1["final_locations"] == {"banana_1": "dining_table_1"} and c1["summary"]["replans"] >= 1
 
@@ -192,9 +189,9 @@ def test_the_expected_encoding_steers_inter_llm_away_from_an_object_that_always_
     cfg.llm = LLMConfig(backend="oracle", proposal_mode="oracle", cost_inference_mode="oracle",
                         oracle_costs="numeric", temperature=0.0)
     cfg.planner.M = 3
-    rec_paper, _ = run("inter_llm", cfg, hard=("banana_1",))
+    rec_paper, _ = run_tiny_mission("inter_llm", cfg, hard=("banana_1",))
     cfg.planner.cost_encoding = "expected"
-    rec_exp, _ = run("inter_llm", cfg, hard=("banana_1",))
+    rec_exp, _ = run_tiny_mission("inter_llm", cfg, hard=("banana_1",))
     # every breakfast candidate needs the banana (two objects asked, apple and banana the only
     # relevant ones), so the estimates grow by gamma_obj for each plan that picks it up
     e_paper = rec_paper["commands"][0]["summary"]["estimated_costs"]

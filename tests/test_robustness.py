@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
+from helpers.files import make_read_only, undo_read_only  # noqa: E402
 from helpers.ollama_server import FakeOllama, free_port  # noqa: E402
 
 from interllm.config import ConfigError, ExperimentConfig, LLMConfig, from_dict  # noqa: E402
@@ -356,27 +357,6 @@ def test_bad_cache_entries_are_named_and_recomputed(tmp_path, caplog):
     assert "cannot be read" in caplog.text and "cannot be written" in caplog.text
 
 
-def _make_read_only(paths: list[Path]) -> list[Path]:
-    """Make folders unwritable: permission bits for a normal user; for root (whom permission bits do
-    not stop) the immutable attribute, where the file system has it. Returns what to undo."""
-    for p in paths:
-        p.chmod(0o555)
-    if os.geteuid() != 0:
-        return []
-    done = []
-    for p in paths:
-        if subprocess.run(["chattr", "+i", str(p)], capture_output=True).returncode != 0:
-            _undo_read_only(done)
-            pytest.skip("running as root on a file system without chattr +i: cannot make a folder read-only")
-        done.append(p)
-    return done
-
-
-def _undo_read_only(done: list[Path]) -> None:
-    for p in done:
-        subprocess.run(["chattr", "-i", str(p)], capture_output=True)
-
-
 READONLY_SCRIPT = """
 import logging, sys
 logging.basicConfig(level=logging.WARNING)
@@ -397,12 +377,12 @@ def test_a_read_only_cache_degrades_to_no_caching_with_a_warning(tmp_path):
     c.complete(REQ)
     before = {p: p.read_bytes() for p in cache.rglob("*") if p.is_file()}
     dirs = [cache, *(p for p in cache.rglob("*") if p.is_dir())]
-    undo = _make_read_only(dirs)
+    undo = make_read_only(dirs)
     try:
         r = subprocess.run([sys.executable, "-c", READONLY_SCRIPT, str(cache)], cwd=ROOT, capture_output=True,
                            text=True, timeout=120)
     finally:
-        _undo_read_only(undo)
+        undo_read_only(undo)
         for p in dirs:
             p.chmod(0o755)
     assert r.returncode == 0, r.stderr

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers.scenes import FRONT, kitchen
 
 from interllm.config import SimConfig
 from interllm.core.actions import Action
@@ -18,21 +19,6 @@ from interllm.sim.base_poses import PRE_GRASP_HEIGHT, BasePose, arm_reach, pose_
 from interllm.sim.grasp_goals import GRASP_MIN_HEIGHT
 from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, TUCK, UPPER_ARM, WRIST_TO_GRIP
 from interllm.sim.world import World
-
-FRONT = (2.0, 2.25)  # a mug 0.1 m behind the counter's front edge (y = 2.15)
-BACK = (2.0, 2.85)  # a mug 0.7 m behind it, against the wall
-
-
-def kitchen() -> SceneGraph:
-    """One 4 x 3 m room; a deep counter (0.8 m, top at 0.9 m) against the north wall."""
-    sg = SceneGraph(id="kitchen", seed=0)
-    sg.rooms["k"] = Room("k", "kitchen", ((0, 0), (4, 0), (4, 3), (0, 3)))
-    for i, (a, b) in enumerate([((0, 0), (4, 0)), ((4, 0), (4, 3)), ((4, 3), (0, 3)), ((0, 3), (0, 0))]):
-        sg.walls[f"wall_{i}"] = Wall(f"wall_{i}", a, b, 0.1, 2.5)
-    sg.furniture["counter_1"] = Furniture("counter_1", "counter", "k", (2.0, 2.55), (1.2, 0.8, 0.9))
-    sg.objects["mug_front"] = SceneObject("mug_front", "mug", "counter_1", (*FRONT, 0.95), (0.08, 0.08, 0.1))
-    sg.objects["mug_back"] = SceneObject("mug_back", "mug", "counter_1", (*BACK, 0.95), (0.08, 0.08, 0.1))
-    return sg
 
 
 def reach_world(n_l: int = 20) -> World:

@@ -4,13 +4,17 @@ navigation, and deterministic fake LLM clients (the LLM is not what these tests 
 from __future__ import annotations
 
 import copy
+import json
 import re
 
 import numpy as np
 
+from interllm.config import ExperimentConfig
 from interllm.core.actions import Action, State
 from interllm.core.results import ActionResult, ManipulationTrial, man_cost, nav_cost
 from interllm.llm.types import LLMResponse, ScoreResponse
+from interllm.planners.candidates import generate_initial_candidates
+from interllm.planners.runner import run_mission
 from interllm.planning.costs import path_length
 from interllm.planning.feasibility import action_violations, apply
 from interllm.scene.graph import Command, Door, Furniture, Goal, Mission, Room, SceneGraph, SceneObject
@@ -190,3 +194,32 @@ class ScriptedClient(_Views):
 
     def score(self, req):
         raise AssertionError("ScriptedClient does not score")
+
+
+class ListRecorder:
+    """A run-log recorder that keeps events, actions and log lines in lists (payloads must be JSON-able)."""
+
+    def __init__(self):
+        self.events, self.actions, self.logs = [], [], []
+
+    def event(self, topic, t, payload):
+        json.dumps(payload)  # must be JSON-able
+        self.events.append((topic, t, payload))
+
+    def action(self, result, context):
+        self.actions.append((result, context))
+
+    def log(self, t, level, message):
+        self.logs.append((t, level, message))
+
+
+def run_tiny_mission(name, cfg=None, hard=(), blocked=(), client=None, cands=None, recorder=None):
+    """Planner ``name`` on ``tiny_mission`` in a ``SymbolicWorld`` (``hard``/``blocked``: its failing
+    actions); returns the mission record as a dict and the world."""
+    cfg = cfg or ExperimentConfig()
+    scene, mission = tiny_scene(), tiny_mission()
+    client = client or FakeScoreClient()
+    cands = cands if cands is not None else generate_initial_candidates(scene, mission, client, cfg)
+    world = SymbolicWorld(scene, cfg.sim, hard, blocked)
+    rec = run_mission(name, world, mission, cands, client, cfg, recorder=recorder or ListRecorder()).to_dict()
+    return rec, world
