@@ -1,4 +1,4 @@
-# The two commands of the README:  `make repro`  and  `make test`.
+# The two commands of the README:  `make repro`  and  `make test`  (`make test-all`: every test).
 # Both create .venv and install the package with its dependencies (idempotent: a second call
 # installs nothing unless pyproject.toml, requirements.lock or the llama.cpp build choice changed).
 VENV ?= .venv
@@ -23,7 +23,7 @@ LLAMA_WHEELS := .wheels/llama-cpp-python-$(LLAMA_KEY)
 LLAMA_STAMP := $(VENV)/.llama-$(LLAMA_KEY)
 JOBS := $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: install install-llama repro test lint bench params clean-cache lock
+.PHONY: install install-llama repro test test-ci test-all lint bench params clean-cache lock
 
 install: $(VENV)/.installed
 
@@ -79,9 +79,19 @@ repro: install
 	dvc repro
 	$(PY) -m interllm.cli results diff
 
-# The test suite (what CI runs).
+# Test tiers (markers in pyproject.toml). `make test`: the fast tier, every unit and component test
+# (the real embedded model included) but none that runs stages or the whole pipeline.
+# `make test-ci`: the fast tier plus the integration tests (quick experiments through DVC, the
+# committed results reproduced from the cache, real LLM servers): what .ci/run runs.
+# `make test-all`: every test, the `slow` ones too (each repeats a path a shorter test covers).
 test: install
-	$(PY) -m pytest
+	$(PY) -m pytest -m "not slow and not integration"
+
+test-ci: install
+	$(PY) -m pytest -m "not slow"
+
+test-all: install
+	$(PY) -m pytest -m ""
 
 lint: install
 	$(VENV)/bin/ruff check .

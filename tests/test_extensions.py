@@ -125,6 +125,7 @@ def _quick(tmp_path, **llm):
                       "planner": {"names": ["first_candidate", "sayplan"]}})
 
 
+@pytest.mark.integration
 def test_a_new_planner_runs_the_quick_experiment(registered, tmp_path, monkeypatch):
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")
     cfg = _quick(tmp_path, cache_mode="replay")
@@ -139,6 +140,7 @@ def test_a_new_planner_runs_the_quick_experiment(registered, tmp_path, monkeypat
     assert metrics["planners"]["first_candidate"]["n_objects"] == 9
 
 
+@pytest.mark.integration
 def test_a_new_backend_and_proposal_mode_run_the_quick_experiment(registered, tmp_path, monkeypatch):
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")
     cfg = _quick(tmp_path, backend="overlap", proposal_mode="nearest", cost_inference_mode="score")

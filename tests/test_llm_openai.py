@@ -178,6 +178,7 @@ def _generate_loop(real_server, tmp_path, overrides: dict) -> None:
         (tmp_path / "live" / "metrics" / "metrics.json").read_bytes()
 
 
+@pytest.mark.integration
 @pytest.mark.embedded
 def test_the_paper_generate_loop_through_a_real_server(real_server, tmp_path, monkeypatch):
     """One planner, one candidate, one repair round: the generate loop's every request kind over HTTP
@@ -187,6 +188,7 @@ def test_the_paper_generate_loop_through_a_real_server(real_server, tmp_path, mo
                                                        "moma_max_replans": 1}})
 
 
+@pytest.mark.integration
 @pytest.mark.slow
 @pytest.mark.embedded
 def test_the_quick_experiment_in_generate_mode_through_a_real_server(real_server, tmp_path, monkeypatch):
@@ -195,6 +197,7 @@ def test_the_quick_experiment_in_generate_mode_through_a_real_server(real_server
     _generate_loop(real_server, tmp_path, {})
 
 
+@pytest.mark.integration
 @pytest.mark.embedded
 def test_score_mode_over_http_agrees_with_the_embedded_model(real_server, tmp_path):
     """The same GGUF scored through the server's echoed log-probabilities and in process."""

@@ -113,7 +113,7 @@ def test_the_missions_can_be_executed_in_the_simulator(paper, which):
 
 
 def test_breaking_the_guarantee_is_reported_and_reduced(caplog):
-    """The earlier generator with every object placed hard: the measurement finds commands it cannot
+    """The legacy object design with every object placed hard: the measurement finds commands it cannot
     fill, and the missions are cut down to what can be delivered, each cut said in a log line."""
     cfg = _cfg(scene={"object_design": "legacy", "hard_placement_prob": 1.0})
     k = cfg.mission.objects_per_command

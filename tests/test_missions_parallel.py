@@ -13,6 +13,8 @@ from interllm.stages.candidates import run_candidates
 from interllm.stages.missions import run_missions
 from interllm.stages.scenes import run_scenes
 
+pytestmark = pytest.mark.integration  # whole-pipeline runs: `make test-all`, not the fast tier
+
 ROOT = Path(__file__).resolve().parents[1]
 
 

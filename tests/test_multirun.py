@@ -9,6 +9,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.integration  # whole-pipeline runs: `make test-all`, not the fast tier
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -52,7 +56,6 @@ def test_submitit_local_runs_two_jobs_against_one_shared_llm_cache(tmp_path):
     """The cluster path: Hydra's submitit launcher (its local executor is the code path of
     hydra/launcher=submitit_slurm) runs two jobs as separate processes; both ask the same prompts
     and write one cache. Every entry must be whole, and each job must replay from it alone."""
-    import pytest
 
     pytest.importorskip("hydra_plugins.hydra_submitit_launcher", reason="pip install -e '.[slurm]'")
     from interllm.llm.cache import ResponseCache

@@ -31,6 +31,7 @@ def _delivers(plan, command, scene) -> bool:
                and (a.kind != "place" or a.furniture in command.goal.target_furniture) for a in plan)
 
 
+@pytest.mark.integration
 def test_the_oracle_at_zero_error_runs_the_quick_experiment_right_and_caches_nothing(tmp_path, monkeypatch):
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")
     cfg = from_dict({"jobs": 1, "scene": {"n_scenes": 1}, "mission": {"n_missions": 1},
@@ -163,6 +164,7 @@ def test_answer_accuracy_counts_relevant_objects_and_right_targets():
     assert a["relevance"] == pytest.approx(2 / 3) and a["target"] == pytest.approx(0.5)
 
 
+@pytest.mark.integration
 def test_the_sweep_report_places_a_run_on_the_oracle_axis(tmp_path, monkeypatch):
     """Two quick oracle runs (error 0 and 1) form the sweep; a third at error 0.5 plays the model."""
     from interllm.stages.report import find_oracle_results, run_report

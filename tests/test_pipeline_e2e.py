@@ -16,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.integration  # whole-pipeline runs: `make test-all`, not the fast tier
+
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
 SKIP = {".git", ".venv", "data", "outputs", "multirun", ".pytest_cache", ".ruff_cache", "__pycache__",

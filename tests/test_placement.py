@@ -37,6 +37,7 @@ def test_depth_is_measured_from_the_open_sides():
 _M_IN = re.compile(r"\d\.\d\d m in from the (open|nearest) side")
 
 
+@pytest.mark.integration
 @pytest.mark.embedded
 def test_cost_inference_prompts_carry_the_placement_of_the_action_and_of_every_known_one(tmp_path):
     """Inter-LLM with the embedded model on two commands: every cost-inference prompt's action

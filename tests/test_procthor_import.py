@@ -170,6 +170,7 @@ def test_missions_on_a_house_that_cannot_host_the_paper_mission(caplog):
     assert "the paper's command(s) ['meeting'] need target furniture" in caplog.text
 
 
+@pytest.mark.integration
 def test_the_paper_mission_runs_end_to_end_on_a_procthor_house(tmp_path):
     """Imported with zero hard errors, validated, and the quick experiment (the paper's mission,
     all three planners) run on it with the embedded model (its answers come from the committed

@@ -225,6 +225,7 @@ def _check_metrics(metrics: dict, data: Path) -> None:
         assert p["n_missions"] == 1 and p["n_objects"] == slots
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("seed", SEEDS)
 def test_ten_untidy_houses_run_the_quick_experiment_with_the_oracle(seed, tmp_path, monkeypatch):
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")

@@ -122,7 +122,7 @@ def test_candidates_differ_in_objects_where_the_house_allows(temperature):
     assert len({frozenset(o) for o, _ in objs}) == 3
     plans = sample_selections(_scores(), scene, state, n_objects=2, n_plans=3, temperature=0.0,
                               rng=np.random.default_rng(1), diversity="plans")
-    assert len({frozenset(o) for o, _ in plans}) < 3  # the earlier sampler repeats the best pair
+    assert len({frozenset(o) for o, _ in plans}) < 3  # the "plans" sampler repeats the best pair
 
 
 def test_candidates_fall_back_to_other_targets_when_object_sets_run_out():

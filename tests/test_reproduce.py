@@ -79,6 +79,7 @@ def test_requirements_lock_parses_and_pins_the_simulation_stack():
         assert any(k.lower().replace("_", "-") == pkg.replace("_", "-") for k in pins), pkg
 
 
+@pytest.mark.integration
 def test_committed_metrics_reproduce_from_the_committed_cache(tmp_path, monkeypatch):
     want = committed_file(ROOT, METRICS)
     if want is None:

@@ -46,6 +46,7 @@ def _ollama_cfg(host: str, tmp_path: Path, **kw) -> LLMConfig:
 
 
 # -- a broken model fails loudly --------------------------------------------------------------------
+@pytest.mark.integration
 def test_a_model_that_answers_garbage_stops_the_candidates_stage(tmp_path):
     from interllm.stages.candidates import run_candidates
     from interllm.stages.scenes import run_scenes
@@ -157,6 +158,7 @@ def _tree_state(d: Path) -> dict:
     return {str(p): (p.stat().st_size, p.stat().st_mtime_ns) for p in d.rglob("*") if p.is_file()}
 
 
+@pytest.mark.integration
 def test_a_killed_two_worker_run_leaves_nothing_running(tmp_path):
     import psutil
 
