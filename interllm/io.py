@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,25 +32,42 @@ def _umask() -> int:
 _FILE_MODE = 0o666 & ~_umask()  # what open() would give a new file (mkstemp makes it 0600)
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write to a temp file in the same folder, fsync, then rename over ``path`` (which gets the
-    usual permissions of a new file, not mkstemp's owner-only 0600)."""
-    path = Path(path)
+@contextlib.contextmanager
+def temp_file_beside(path: Path) -> Iterator[str]:
+    """The name of a new, empty file in ``path``'s folder, with a new file's usual permissions (not
+    mkstemp's owner-only 0600). Write it (``write_synced``), then move it into place (``os.replace``
+    or ``os.link``) inside the block; whatever is still at that name when the block ends, by an
+    error or not, is removed, so a failure leaves nothing half-written behind."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "wb") as f:  # owns (and closes) fd from here on
-            os.fchmod(f.fileno(), _FILE_MODE)
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
+        try:
+            os.fchmod(fd, _FILE_MODE)
+        finally:
+            os.close(fd)
+        yield tmp
+    finally:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
-        raise
+
+
+def write_synced(name: str, data: bytes) -> None:
+    """Write ``data`` to the file ``name`` and fsync it (its bytes are on disk before a rename)."""
+    with open(name, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
+    """Write to a temp file in the same folder, fsync, then rename over ``path`` (which gets the
+    usual permissions of a new file)."""
+    path = Path(path)
+    with temp_file_beside(path) as tmp:
+        write_synced(tmp, data)
+        os.replace(tmp, path)
 
 
 def atomic_create_bytes(path: str | os.PathLike, data: bytes) -> bool:
@@ -56,27 +75,15 @@ def atomic_create_bytes(path: str | os.PathLike, data: bytes) -> bool:
     this call created it, False if it was there already. Where the file system has no hard links,
     falls back to ``atomic_write_bytes`` (the last writer wins)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            os.fchmod(f.fileno(), _FILE_MODE)
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
+    with temp_file_beside(path) as tmp:
+        write_synced(tmp, data)
         try:
             os.link(tmp, path)
         except FileExistsError:
             return False
         except OSError:  # no hard links here
             os.replace(tmp, path)
-            return True
         return True
-    finally:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:

