@@ -160,6 +160,8 @@ def _cache_prune(args) -> int:
 def _results_diff(args) -> int:
     """Compare metrics.json (and the environment it was made in) with a git revision's."""
     from interllm.metrics.compare import (  # lazy: a command loads only its own code
+        MetricsShapeError,
+        check_metrics_shape,
         committed_file,
         compare_metrics,
     )
@@ -177,7 +179,11 @@ def _results_diff(args) -> int:
         print(f"results diff: {path} is missing: run `make repro` first", file=sys.stderr)
         return 2
     try:
-        cmp = compare_metrics(json.loads(ref), json.loads(path.read_text(encoding="utf-8")))
+        reference = check_metrics_shape(json.loads(ref), f"{rel.as_posix()} at git revision {args.reference}")
+        cmp = compare_metrics(reference, check_metrics_shape(json.loads(path.read_text(encoding="utf-8")), str(path)))
+    except MetricsShapeError as e:
+        print(f"results diff: {e}", file=sys.stderr)
+        return 2
     except ValueError as e:
         print(f"results diff: {path} or its {args.reference} version is not valid JSON: {e}", file=sys.stderr)
         return 2

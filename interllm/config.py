@@ -21,7 +21,7 @@ import difflib
 from dataclasses import dataclass, field
 from typing import Optional
 
-from interllm.errors import UserError
+from interllm.config_types import ConfigError, coerce
 
 CACHE_MODES = ("readwrite", "replay", "off")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean", "prior")  # interllm/planning/costs.py
@@ -35,10 +35,6 @@ CANDIDATE_DIVERSITY = ("objects", "plans")  # llm.candidate_diversity (interllm/
 POSE_PROTOCOLS = ("window", "reach")  # sim.pose_protocol: a small window by the furniture, the paper's reach (interllm/sim/base_poses.py)
 
 
-class ConfigError(UserError, ValueError):
-    """A configuration value is invalid; the message names the key and the valid values."""
-
-
 def _check(cond: bool, key: str, msg: str) -> None:
     if not cond:
         raise ConfigError(f"config key '{key}': {msg}")
@@ -46,6 +42,19 @@ def _check(cond: bool, key: str, msg: str) -> None:
 
 def _choice(value: str, key: str, valid: tuple[str, ...]) -> None:
     _check(value in valid, key, f"{value!r} is not valid; choose one of {list(valid)}")
+
+
+# The largest scene (generated or imported) and experiment the stages accept, checked before any
+# work starts: about 3 times the huge preset (110 rooms, 360 furniture, 2,000 objects, whose scenes
+# stage takes about 3 minutes on 2 cores), so a mistyped size is a message, not an hour of silence
+SCENE_LIMITS = {"rooms": 400, "furniture": 1500, "objects": 6000}
+MAX_SCENES, MAX_MISSIONS, MAX_COMMANDS = 100, 1000, 100  # scene.n_scenes, mission.n_missions, commands_per_mission
+
+
+def _at_most(value: int, limit: int, key: str, what: str) -> None:
+    _check(value <= limit, key, f"{value} {what} is more than the {limit} the stages accept (about 3 times the "
+                                f"largest measured run, so that a mistyped size stops here, not after hours); "
+                                f"lower it")
 
 
 @dataclass
@@ -80,6 +89,9 @@ class SceneConfig:
         _check(self.n_rooms >= 2, "scene.n_rooms", f"must be >= 2, got {self.n_rooms}")
         _check(self.n_furniture >= self.n_rooms, "scene.n_furniture", "must be >= scene.n_rooms")
         _check(self.n_objects >= 1, "scene.n_objects", f"must be >= 1, got {self.n_objects}")
+        _at_most(self.n_scenes, MAX_SCENES, "scene.n_scenes", "scenes")
+        for key in SCENE_LIMITS:
+            _at_most(getattr(self, f"n_{key}"), SCENE_LIMITS[key], f"scene.n_{key}", key)
         _choice(self.layout, "scene.layout", SCENE_LAYOUTS)
         _choice(self.object_design, "scene.object_design", OBJECT_DESIGNS)
         _check(0.3 <= self.door_width_min <= self.door_width, "scene.door_width_min",
@@ -109,6 +121,8 @@ class MissionConfig:
     def validate(self) -> None:
         _check(self.n_missions >= 1, "mission.n_missions", f"must be >= 1, got {self.n_missions}")
         _check(self.commands_per_mission >= 1, "mission.commands_per_mission", "must be >= 1")
+        _at_most(self.n_missions, MAX_MISSIONS, "mission.n_missions", "missions per scene")
+        _at_most(self.commands_per_mission, MAX_COMMANDS, "mission.commands_per_mission", "commands per mission")
         _check(1 <= self.objects_per_command <= 6, "mission.objects_per_command",
                f"must be in [1, 6], got {self.objects_per_command}")
         _check(self.limit_missions is None or self.limit_missions >= 1, "mission.limit_missions",
@@ -341,6 +355,9 @@ class ExperimentConfig:
     ``hydra_plugins/interllm_schema``) with the option files' differences on top."""
 
     experiment: str = "paper"
+    # the experiment's replicate: offsets the seeds of scene, mission, llm and sim (houses, mission
+    # draws, LLM sampling, base-pose sampling) for a whole new draw; 0 leaves them as set.
+    # metrics.seed (the bootstrap's) is not offset: replicates are judged by the same analysis
     seed: int = 0
     data_dir: str = "data"
     verbose: bool = False
@@ -356,52 +373,29 @@ class ExperimentConfig:
         self.validate()
 
     def validate(self) -> None:
+        _check(0 <= self.seed <= SEED_MAX, "seed", f"must be in [0, {SEED_MAX}] (the experiment's replicate; 0: each "
+                                                   f"group's own seed), got {self.seed}")
         if isinstance(self.jobs, bool) or not isinstance(self.jobs, int) or self.jobs < 0:
             raise ConfigError(f"config key 'jobs' must be an integer >= 0 (0: one worker per CPU core), "
                               f"got {self.jobs!r}")
         for group in (self.scene, self.mission, self.llm, self.planner, self.sim, self.metrics):
             group.validate()
 
+    def seeded(self) -> ExperimentConfig:
+        """The config the stages run: each seeded group's seed offset by the top-level ``seed`` (the
+        replicate), metrics' not; ``seed`` 0 returns this config itself."""
+        if self.seed == 0:
+            return self
+        offset = {g: dataclasses.replace(getattr(self, g), seed=getattr(self, g).seed + self.seed)
+                  for g in SEEDED_GROUPS}
+        return dataclasses.replace(self, **offset)
+
+
+SEED_MAX = 2**31 - 1  # the top-level seed's largest value (a 32-bit seed offset)
+SEEDED_GROUPS = ("scene", "mission", "llm", "sim")  # the groups whose seed the top-level seed offsets
 
 _GROUPS = {"scene": SceneConfig, "mission": MissionConfig, "llm": LLMConfig, "planner": PlannerConfig,
            "sim": SimConfig, "metrics": MetricsConfig}
-
-
-def _type_name(tp: str) -> str:
-    return {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false",
-            "list[str]": "a list of strings", "list[float]": "a list of numbers"}.get(tp, tp)
-
-
-def _coerce(value, tp: str, key: str, source: str):
-    """``value`` checked against the field annotation ``tp`` (as written in the dataclass)."""
-    where = f" (in {source})" if source else ""
-    optional = tp.startswith("Optional[")
-    base = tp[len("Optional["):-1] if optional else tp
-    if value is None:
-        if optional:
-            return None
-        raise ConfigError(f"config key '{key}'{where} must be {_type_name(base)}, got null")
-    is_bool = isinstance(value, bool)
-    if base == "bool" and is_bool:
-        return value
-    if base == "int" and isinstance(value, int) and not is_bool:
-        return value
-    if base == "float" and isinstance(value, (int, float)) and not is_bool:
-        return float(value)
-    if base == "str" and isinstance(value, str):
-        return value
-    if base == "list[str]" and isinstance(value, list) and all(isinstance(x, str) for x in value):
-        return list(value)
-    if base == "list[float]" and isinstance(value, list) and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) for x in value):
-        return [float(x) for x in value]
-    hint = ""
-    if base == "list[str]" and isinstance(value, str):
-        hint = f"; write a list, e.g. -S '{key}=[{value}]'"
-    elif base == "int" and isinstance(value, float) and not is_bool:
-        hint = f"; {value} is not a whole number"
-    raise ConfigError(f"config key '{key}'{where} must be {_type_name(base)}"
-                      f"{' or null' if optional else ''}, got {value!r} ({type(value).__name__}){hint}")
 
 
 def from_dict(d: dict, source: str = "") -> ExperimentConfig:
@@ -426,7 +420,7 @@ def from_dict(d: dict, source: str = "") -> ExperimentConfig:
             if cls is ExperimentConfig and k in _GROUPS:
                 kwargs[k] = build(_GROUPS[k], {} if v is None else v, f"{k}.")
             else:
-                kwargs[k] = _coerce(v, str(fields[k].type), f"{prefix}{k}", source)
+                kwargs[k] = coerce(v, str(fields[k].type), f"{prefix}{k}", source)
         obj = cls(**kwargs)
         if cls is not ExperimentConfig:
             obj.validate()

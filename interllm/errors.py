@@ -34,6 +34,15 @@ class OutputError(UserError, OSError):
     written before stays as it is."""
 
 
+INTERRUPTED_EXIT = 130  # the shell's status for a process stopped by Ctrl-C (128 + SIGINT)
+
+
+def interrupted_message(what: str) -> str:
+    """What a Ctrl-C leaves behind and how to go on, for ``what`` (e.g. "stage 'missions'")."""
+    return (f"{what} interrupted (Ctrl-C): the files it had finished are kept, none is half-written (an "
+            f"unfinished run log stays as a .mcap.partial); rerun the same command to finish")
+
+
 def output_error(e: Optional[BaseException]) -> Optional[OutputError]:
     """The :class:`OutputError` for a full disk or an unwritable folder anywhere in ``e``'s chain
     (the exception, its causes and contexts), or None: any other error is a bug and keeps its traceback."""

@@ -17,6 +17,7 @@ import threading
 import time
 
 PR_SET_PDEATHSIG = 1
+STAGE_PARENT_ENV = "INTERLLM_STAGE_PARENT"  # pid of the process that ran pipeline/stage (DVC), set by that script
 
 
 def _prctl_pdeathsig(sig: int) -> bool:
@@ -49,3 +50,18 @@ def die_with_parent(expected_parent: int | None = None, sig: int = signal.SIGKIL
                          name="parent-watch").start()
     if os.getppid() != parent:  # the parent died before the prctl took effect
         os.kill(os.getpid(), sig)
+
+
+def die_with_stage_runner(sig: int = signal.SIGTERM) -> None:
+    """Under DVC (``DVC_STAGE`` set): receive ``sig`` when the ``dvc`` process that started this
+    stage exits. ``pipeline/stage`` records dvc's pid in ``INTERLLM_STAGE_PARENT`` before it starts
+    Python, so a dvc killed while the interpreter was still starting or importing is noticed
+    here, not missed (the stage would otherwise run on with no parent). Called by the ``pipeline``
+    package before it imports anything else."""
+    if not os.environ.get("DVC_STAGE"):
+        return
+    try:
+        parent = int(os.environ.get(STAGE_PARENT_ENV, ""))
+    except ValueError:
+        parent = os.getppid()
+    die_with_parent(expected_parent=parent, sig=sig)

@@ -10,7 +10,6 @@ import argparse
 import configparser
 import logging
 import os
-import signal
 import sys
 import traceback
 from collections.abc import Callable
@@ -19,15 +18,18 @@ from pathlib import Path
 import yaml
 
 from interllm.config import ConfigError, ExperimentConfig, from_dict
-from interllm.errors import UserError, output_error
+from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, output_error
 from interllm.imports_log import log_loaded_modules
-from interllm.lifetime import die_with_parent
+from interllm.io import confine_writes
+from interllm.llm.model_files import model_dir
 
 ROOT = Path(__file__).resolve().parent.parent
 QUIET_LOGGERS = ("httpx", "httpx2", "httpcore", "openai")  # a line per HTTP request (INFO) unless verbose
 
 
 def load_params(path: Path | None = None) -> tuple[ExperimentConfig, dict]:
+    """The config a stage runs (params.yaml validated, the top-level seed applied:
+    ``ExperimentConfig.seeded``) and the raw mapping."""
     path = path or ROOT / "params.yaml"
     if not path.is_file():
         raise ConfigError(f"{path} is missing: run `dvc exp run` or `python -m pipeline.params` to "
@@ -39,7 +41,14 @@ def load_params(path: Path | None = None) -> tuple[ExperimentConfig, dict]:
     if not isinstance(raw, dict):
         raise ConfigError(f"{path} must hold a mapping of config keys, got {type(raw).__name__}; "
                           f"recompose it with `make params`")
-    return from_dict(raw, source=str(path)), raw
+    return from_dict(raw, source=str(path)).seeded(), raw
+
+
+def write_folders(cfg: ExperimentConfig, data: Path) -> tuple[Path, ...]:
+    """The folders a stage or run may write into: its data folder, the LLM response cache and the
+    folder the packaged model is assembled in (``interllm.io.confine_writes``; a relative cache
+    folder is the client's: relative to the working directory)."""
+    return data, Path(cfg.llm.cache_dir), model_dir()
 
 
 def setup_logging(verbose: bool) -> None:
@@ -96,18 +105,20 @@ def stage_main(name: str, body: Callable[[ExperimentConfig, dict, Path], None]) 
     ap.add_argument("--params", type=Path, default=None, help="params file (default: params.yaml)")
     ap.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     args = ap.parse_args()
-    if os.environ.get("DVC_STAGE"):  # run by DVC: a killed `dvc repro` must not leave the stage running
-        die_with_parent(sig=signal.SIGTERM)
     try:
         cfg, raw = load_params(args.params)
         setup_logging(args.verbose or cfg.verbose)
         data = Path(cfg.data_dir)
         if not data.is_absolute():
             data = ROOT / data
-        body(cfg, raw, data)
+        with confine_writes(*write_folders(cfg, data)):
+            body(cfg, raw, data)
     except UserError as e:
         print(f"error: stage '{name}': {e}{_dvc_hint(name)}", file=sys.stderr)
         sys.exit(2)
+    except KeyboardInterrupt:
+        print(f"error: {interrupted_message(f'stage {name!r}')}", file=sys.stderr)
+        sys.exit(INTERRUPTED_EXIT)
     except Exception as e:
         if (unwritable := output_error(e)) is not None:  # a full disk, a read-only folder
             print(f"error: stage '{name}': {unwritable}{_dvc_hint(name)}", file=sys.stderr)

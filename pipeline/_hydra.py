@@ -55,4 +55,4 @@ def to_config(cfg) -> ExperimentConfig:
     typed = from_dict(OmegaConf.to_container(cfg, resolve=True),
                       source="the composed config (conf/ and the command-line overrides)")
     check_registered(typed)
-    return typed
+    return typed.seeded()

@@ -19,10 +19,11 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
-from interllm.errors import UserError, output_error
+from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, output_error
+from interllm.io import confine_writes, exclusive_folder
 from interllm.stages.pipeline import run_all
 from interllm.stages.workers import usable_cores
-from pipeline._common import ROOT, setup_logging
+from pipeline._common import ROOT, setup_logging, write_folders
 from pipeline._hydra import CONF_DIR, to_config
 
 
@@ -45,7 +46,9 @@ def run(cfg: DictConfig) -> dict:
     out = Path(hc.runtime.output_dir) / "data"
     resolved = OmegaConf.to_container(cfg, resolve=True)
     resolved["jobs"], resolved["llm"]["n_threads"] = typed.jobs, typed.llm.n_threads
-    return run_all(typed, out, resolved_config=resolved)
+    run_dir = Path(hc.runtime.output_dir)
+    with confine_writes(*write_folders(typed, run_dir)), exclusive_folder(run_dir):
+        return run_all(typed, out, resolved_config=resolved)
 
 
 @hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
@@ -55,6 +58,9 @@ def main(cfg: DictConfig) -> None:
     except UserError as e:  # a fixable problem: its message, not a traceback
         print(f"error: {e}", file=sys.stderr)
         sys.exit(2)
+    except KeyboardInterrupt:
+        print(f"error: {interrupted_message('the run')}", file=sys.stderr)
+        sys.exit(INTERRUPTED_EXIT)
     except Exception as e:
         if (unwritable := output_error(e)) is None:  # a bug: its traceback
             raise

@@ -1,6 +1,7 @@
 """The experiment's typed schema as a Hydra plugin: importing this module stores
 ``interllm.config.ExperimentConfig`` in Hydra's ConfigStore as ``_schema/root`` (package
-``_global_``), which ``conf/config.yaml`` lists first in its defaults.
+``_global_``), which ``conf/config.yaml`` lists first in its defaults, and registers the
+``${interllm_pid:}`` resolver its run folders end in (one folder per run process).
 
 Hydra imports every module of the ``hydra_plugins`` namespace package when it initialises
 (``hydra.core.plugins.Plugins``), so every process that composes ``conf/`` gets the schema
@@ -14,17 +15,23 @@ install (``pip install -e .``, ``make install``) puts this package on the interp
 
 from __future__ import annotations
 
+import os
+
 from hydra.core.config_store import ConfigStore
+from omegaconf import OmegaConf
 
 from interllm.config import ExperimentConfig
 
 SCHEMA_GROUP = "_schema"
 SCHEMA_NAME = "root"
+PID_RESOLVER = "interllm_pid"
 
 
 def register() -> None:
     """Store ExperimentConfig as ``_schema/root`` (idempotent: a second call overwrites the entry)."""
     ConfigStore.instance().store(group=SCHEMA_GROUP, name=SCHEMA_NAME, node=ExperimentConfig, package="_global_")
+    # conf/config.yaml's run folders end in the process id: unique per run process
+    OmegaConf.register_new_resolver(PID_RESOLVER, os.getpid, replace=True)
 
 
 register()

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 from interllm.core import jsonfmt
+from interllm.io import check_inside, ensure_dir
 
 LABEL_KEYS = ("stage", "planner", "scene", "mission", "command")
 # A room-selection request (generate mode, planning/expansion.py) is named after the plan request it
@@ -58,7 +59,7 @@ class CallLog:
         self._fh = None
         self.n_records = 0
         if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+            ensure_dir(check_inside(self.path).parent)
             # line-buffered append: each record reaches the OS as one write of one line
             self._fh = open(self.path, "a", encoding="utf-8", buffering=1)
 

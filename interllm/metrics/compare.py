@@ -15,6 +15,8 @@ import subprocess
 from dataclasses import dataclass, field
 from typing import Any
 
+from interllm.errors import UserError
+
 
 @dataclass
 class MetricChange:
@@ -123,6 +125,27 @@ def conclusions(metrics: dict) -> dict[str, str]:
         if isinstance(below, bool):
             out[f"{p} below doing nothing"] = "yes, CI below 0" if below else "no"
     return out
+
+
+class MetricsShapeError(UserError, ValueError):
+    """A metrics.json that is valid JSON but not of the shape the aggregate stage writes."""
+
+
+def check_metrics_shape(d: Any, where: str) -> dict:
+    """``d`` if it has the shape of the aggregate stage's metrics.json (an object whose ``planners``,
+    ``improvement`` and ``comparisons``, where present, map names to objects), else
+    :class:`MetricsShapeError` naming the place and the fix."""
+    fix = "regenerate it (`dvc repro aggregate`) or restore it (`git checkout -- data/metrics/metrics.json`)"
+    if not isinstance(d, dict):
+        raise MetricsShapeError(f"{where} is not a metrics.json of this pipeline: a JSON object was expected, "
+                                f"got {type(d).__name__}; {fix}")
+    for key in ("planners", "improvement", "comparisons"):
+        part = d.get(key, {})
+        bad = [k for k, v in part.items() if not isinstance(v, dict)] if isinstance(part, dict) else None
+        if bad is None or bad:
+            at = f"{key}" if bad is None else f"{key}.{bad[0]}"
+            raise MetricsShapeError(f"{where}: $.{at} is not a JSON object as the aggregate stage writes it; {fix}")
+    return d
 
 
 def compare_metrics(reference: dict, current: dict) -> Comparison:

@@ -13,6 +13,7 @@ from typing import Optional
 
 import numpy as np
 
+from interllm.io import check_inside, ensure_dir
 from interllm.planners import PLANNERS
 from interllm.planning.similarity import path_overlap
 
@@ -30,7 +31,7 @@ def _plt():
 
 def _save(fig, path: str | os.PathLike) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    ensure_dir(check_inside(path).parent)
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
     os.replace(tmp, path)

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from interllm.errors import MissingInputError
-from interllm.io import atomic_write_text, read_json
+from interllm.io import atomic_write_text, ensure_dir, read_json
 from interllm.metrics import (
     delivery_sections,
     figure_sections,
@@ -104,7 +104,7 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
         figures.append(f)
     sweep_sections.encoding_section(doc, [(g, v, Path(d)) for g, v, d in encoding_results], metrics, reference)
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    ensure_dir(out_dir)
     md, ht = out_dir / "report.md", out_dir / "report.html"
     atomic_write_text(md, doc.markdown(out_dir))
     atomic_write_text(ht, doc.html(TITLE))

@@ -374,6 +374,9 @@ def read_run(path: str | os.PathLike) -> RunLog:
         partial = path.with_name(path.name + ".partial")
         hint = f"; a killed run left {partial}" if partial.exists() else ""
         raise MissingInputError(f"no MCAP run log at {path}{hint}")
+    if not path.is_file():  # a FIFO, a device or a socket would block or never end
+        raise RunLogFormatError(f"{path} is not a regular file (a folder, FIFO, device or socket); pass a .mcap "
+                                f"file written by McapRecorder, or a folder of them")
     with open(path, "rb") as f:
         if f.read(8) != MAGIC:
             raise ValueError(f"{path} is not an MCAP file (bad magic); pass a .mcap written by McapRecorder")

@@ -40,6 +40,7 @@ from mcap_protobuf.schema import build_file_descriptor_set
 from interllm.core import jsonfmt
 from interllm.core.frames import BASE_FRAME, GRIP_FRAME, WORLD_FRAME
 from interllm.core.results import ActionResult, Trajectory
+from interllm.io import check_inside, ensure_dir
 from interllm.record import wire
 from interllm.record.foxglove import ObjectsUpdates, grid_message, path_poses, scene_update
 from interllm.record.sdk_writer import COMPRESSIONS, FoxgloveSdkWriter
@@ -101,7 +102,8 @@ class McapRecorder:
             raise ValueError(f"chunk_size must be >= 1024 bytes, got {chunk_size}")
         self.path = Path(path)
         self.partial_path = self.path.with_name(self.path.name + ".partial")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        ensure_dir(check_inside(self.path).parent)
+        check_inside(self.partial_path)
         self.joint_names = tuple(joint_names or (robot.joint_names if robot is not None else ()))
         self.robot = robot
         self._scene_id = scene.id

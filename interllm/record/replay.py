@@ -32,6 +32,8 @@ def find_runs(path_or_dir: str | os.PathLike) -> list[Path]:
         return runs
     if not p.exists():
         raise MissingInputError(f"{p} does not exist; pass a run .mcap or a folder of runs")
+    if not p.is_file():  # reading a FIFO or a device would block or never end
+        raise UserError(f"{p} is not a regular file (a FIFO, device or socket); pass a run .mcap or a folder of runs")
     return [p]
 
 

@@ -44,14 +44,14 @@ import re
 from pathlib import Path
 from typing import Optional
 
-from interllm.io import InputFileError, read_json
+from interllm.io import NAME_MAX, InputFileError, read_json
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.graph import SceneGraph
 from interllm.scene.procthor_format import Conversion, ImportOptions, ImportReport
 from interllm.scene.procthor_layout import convert_floor_map
 from interllm.scene.procthor_objects import convert_objects
 from interllm.scene.repair import mark_unreachable, reject_unhostable
-from interllm.scene.validate import SceneValidationError, looks_like_scene
+from interllm.scene.validate import SceneValidationError, check_scene_id, check_scene_size, looks_like_scene
 
 SCHEMA = "1.0.0"  # metadata.schema of the houses this importer reads
 
@@ -87,8 +87,14 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
                                                 f"scene.import_path={source} (check it with "
                                                 f"`interllm scene validate {source}`)")
     _check_schema_version(d, rep)
+    check_scene_size({k: d.get(k) for k in ("rooms", "objects")}, source)  # before the conversion's work
+    if scene_id is not None:
+        check_scene_id({"id": scene_id}, source, at="scene_id", fix="pass another scene_id")
+    elif d.get("id"):
+        check_scene_id(d, source, fix="set the house's id to a name like train_42, or remove it to name the scene "
+                                      "after its file")
     if scene_id is None and not d.get("id") and not isinstance(house, dict):  # the file's name, not a default
-        scene_id = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(house).stem) or None
+        scene_id = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(house).stem).lstrip(".-")[:NAME_MAX] or None
     cv = Conversion(source, cat, rep, opts or ImportOptions())
     try:
         return _convert(d, cv, scene_id, wall_thickness)
@@ -117,7 +123,7 @@ def _convert(d: dict, cv: Conversion, scene_id: str | None, wall_thickness: floa
     furniture, objects, raw_ids, paths = convert_objects(d, cv, rooms)
     for k, rid in room_map.items():
         raw_ids[rid] = k
-    scene = SceneGraph(id=scene_id or str(d.get("id", "procthor_house")), seed=0, rooms=rooms, walls=walls,
+    scene = SceneGraph(id=scene_id or str(d.get("id") or "procthor_house"), seed=0, rooms=rooms, walls=walls,
                        doors=doors, furniture=furniture, objects=objects,
                        meta={"importer": "procthor", "source_ids": dict(sorted(raw_ids.items()))})
     opts = cv.opts

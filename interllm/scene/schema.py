@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+from interllm.io import NAME_MAX
 from interllm.scene.graph import SCHEMA_VERSION
 
 _ID = {"type": "string", "pattern": r"^[A-Za-z0-9_.\-]+$", "minLength": 1}
+# the scene's own id names its folders (data/scenes/<id>/, candidates/<id>.json): one safe file
+# name (interllm.io.NAME_RULE, which validation checks first, with the reason)
+_SCENE_ID = {"type": "string", "pattern": r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$", "minLength": 1, "maxLength": NAME_MAX}
 _NUM = {"type": "number"}
 _POS = {"type": "number", "exclusiveMinimum": 0}
 _VEC2 = {"type": "array", "items": _NUM, "minItems": 2, "maxItems": 2}
@@ -45,7 +49,7 @@ def scene_json_schema() -> dict:
         "type": "object",
         "properties": {
             "schema_version": {"const": SCHEMA_VERSION},
-            "id": {"type": "string", "minLength": 1},
+            "id": _SCENE_ID,
             "seed": {"type": "integer"},
             "meta": {"type": "object"},
             "rooms": {"type": "array", "items": room, "minItems": 1},

@@ -15,8 +15,9 @@ import jsonschema
 import networkx as nx
 import numpy as np
 
+from interllm.config import SCENE_LIMITS
 from interllm.errors import UserError
-from interllm.io import InputFileError, read_json
+from interllm.io import NAME_RULE, InputFileError, name_problem, read_json, shown
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import rasterize
 from interllm.scene.reachability import unreachable
@@ -41,6 +42,8 @@ def _json_path(parts) -> str:
 def validate_dict(d: Any, source: str = "<scene>") -> None:
     """Structural check of a scene dict against ``scene_json_schema()``, and every number of its
     geometry finite (JSON Schema lets the NaN and Infinity that Python's json reads pass)."""
+    check_scene_id(d, source)
+    check_scene_size(d, source)
     v = jsonschema.Draft202012Validator(scene_json_schema())
     errors = sorted(v.iter_errors(d), key=lambda e: (list(map(str, e.absolute_path)), e.message))
     if errors:
@@ -52,6 +55,27 @@ def validate_dict(d: Any, source: str = "<scene>") -> None:
             path, x = bad
             raise SceneValidationError(source, _json_path(path), f"{x} is not a number a scene can use; "
                                                                  f"write a finite number (in metres)")
+
+
+def check_scene_id(d: Any, source: str, at: str = "$.id", fix: str = "rename it in the file") -> None:
+    """The scene id names the scene's folders (data/scenes/<id>/): SceneValidationError unless it
+    is one safe file name (``interllm.io.NAME_RULE``). A missing id is left to the schema."""
+    if isinstance(d, dict) and "id" in d and (problem := name_problem(d["id"])) is not None:
+        raise SceneValidationError(source, at, f"the scene id {shown(d['id'])} {problem}: it becomes a folder "
+                                               f"name (data/scenes/<id>/), so it must be {NAME_RULE}; {fix}")
+
+
+def check_scene_size(d: Any, source: str) -> None:
+    """SceneValidationError when a scene has more rooms, furniture or objects than the stages accept
+    (``interllm.config.SCENE_LIMITS``), before any work (or a schema check that would quote them all)."""
+    if not isinstance(d, dict):
+        return
+    for key, limit in SCENE_LIMITS.items():
+        items = d.get(key)
+        if isinstance(items, list) and len(items) > limit:
+            raise SceneValidationError(source, f"$.{key}", f"{len(items)} {key}: more than the {limit} the stages "
+                                                           f"accept (interllm.config.SCENE_LIMITS, about 3 times the "
+                                                           f"huge house); split the house or drop {key}")
 
 
 def _non_finite(v: Any, at: list) -> Optional[tuple[list, float]]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from interllm.config import ExperimentConfig
-from interllm.io import write_json
+from interllm.io import check_name, child_path, ensure_dir, write_json
 from interllm.llm.backend import preflight
 from interllm.llm.health import check_failure_share
 from interllm.planners.candidates import generate_initial_candidates
@@ -19,8 +19,7 @@ def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> No
     Nothing is written when too many LLM calls failed (``llm.max_failure_share``)."""
     check_registered(cfg, planners=False)  # an unknown backend or mode fails before any output
     probe = preflight(cfg.llm)  # server up, model served, modes supported (the conformance probe)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = ensure_dir(out_dir)
     if probe is not None:
         write_json(out_dir / PROBE_FILE, probe)
     else:
@@ -37,6 +36,6 @@ def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> No
                 loaded[sid][0], mission, client.with_context(scene=sid, mission=mission.id), cfg)
         check_failure_share(call_log, cfg.llm, "candidates stage")  # before any candidates are written
         for sid, cands in by_scene.items():
-            write_json(out_dir / f"{sid}.json", cands)
+            write_json(child_path(out_dir, check_name(sid, "the scene id") + ".json"), cands)
     finally:
         client.close()

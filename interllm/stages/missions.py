@@ -13,14 +13,15 @@ import concurrent.futures as cf
 import dataclasses
 import multiprocessing
 import os
+import signal
 import traceback
 from pathlib import Path
 
 from interllm.config import ExperimentConfig
 from interllm.core.records import MissionRecord
-from interllm.errors import StageError, UserError, output_error
+from interllm.errors import INTERRUPTED_EXIT, StageError, UserError, output_error
 from interllm.imports_log import log_loaded_modules
-from interllm.io import read_json, write_json
+from interllm.io import check_name, child_path, ensure_dir, read_json, write_json
 from interllm.lifetime import die_with_parent
 from interllm.llm.health import check_failure_share
 from interllm.metrics.compute import Gammas, MissionRows
@@ -64,8 +65,8 @@ class MissionWorker:
         if mission_id not in cands:
             raise StageError(f"{self.candidates_dir / (sid + '.json')} has no candidates for mission {mission_id!r} "
                              f"(it has {sorted(cands)}): rerun the candidates stage (dvc repro candidates)")
-        d = self.out_dir / planner / sid
-        d.mkdir(parents=True, exist_ok=True)
+        check_name(mission_id, f"the mission id (in {self.scenes_dir / sid / 'missions.json'})")
+        d = ensure_dir(child_path(self.out_dir, planner, sid, what="a planner or scene id"))
         meta = {"planner": planner, "scene": sid, "mission": mission_id, **self.prov}
         if sid not in self._worlds:  # built once per scene: its IK models and path fields serve every run
             self._worlds[sid] = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids)
@@ -95,11 +96,19 @@ def metric_rows_logger(recorder, planner: str, scene: SceneGraph, mission_id: st
 _WORKER: MissionWorker | None = None  # the worker process's state (see _init_worker)
 
 
+def _exit_quietly(signum: int, frame) -> None:
+    """A worker's SIGINT handler: stop at once with the shell's status for Ctrl-C, no traceback (its
+    open run log stays a .mcap.partial; the finished ones are complete)."""
+    os._exit(INTERRUPTED_EXIT)
+
+
 def _init_worker(parent: int, ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:
-    """Worker initializer: die with the parent (a killed stage leaves no worker behind), take a
-    call-log file of its own, then set up the worker state."""
+    """Worker initializer: die with the parent (a killed stage leaves no worker behind), leave a
+    Ctrl-C to the parent (which says what it stopped; a worker's traceback would only repeat it),
+    take a call-log file of its own, then set up the worker state."""
     global _WORKER
     die_with_parent(parent)
+    signal.signal(signal.SIGINT, _exit_quietly)
     _WORKER = MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, ids.get(timeout=60))
 
 
@@ -122,8 +131,7 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
                  resolved_config: dict | None = None) -> None:
     """Every planner on every mission: mission records, MCAP run logs, the call log, provenance."""
     check_registered(cfg)  # an unknown planner, backend or mode fails before any output
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = ensure_dir(out_dir)
     prov = provenance(cfg, resolved_config)
     probe_path = Path(candidates_dir) / PROBE_FILE
     if probe_path.is_file():  # the LLM server's conformance probe, made by the candidates stage

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from interllm.config import ExperimentConfig
-from interllm.io import atomic_write_bytes, atomic_write_text, write_json
+from interllm.io import atomic_write_bytes, atomic_write_text, child_path, ensure_dir, write_json
 from interllm.progress import progress
 from interllm.scene.generator import generate_scene
 from interllm.scene.graph import SceneGraph
@@ -41,14 +41,12 @@ def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, Oc
 
 def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
     """Write every scene of the experiment into ``out_dir/<scene_id>/``; returns the scene ids."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = ensure_dir(out_dir)
     ids = []
     n = 1 if cfg.scene.import_path else cfg.scene.n_scenes
     for i in progress(range(n), "scenes", total=n):
         scene = make_scene(cfg, i)
-        d = out_dir / scene.id
-        d.mkdir(parents=True, exist_ok=True)
+        d = ensure_dir(child_path(out_dir, scene.id, what="the scene id ($.id of the scene)"))
         atomic_write_text(d / "scene.json", scene.to_json())
         presumed = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="presumed")
         true = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="true")
