@@ -76,6 +76,7 @@ lock: install
 # whether data/metrics/metrics.json reproduces the committed one (and if not: what moved, which
 # conclusions changed, and how this machine's environment differs from the one that made them).
 repro: install
+	$(PY) -m pipeline.check_outputs
 	dvc repro
 	$(PY) -m interllm.cli results diff
 

@@ -272,6 +272,19 @@ def test_6_a_symlinked_output_folder_stops_the_stage_and_the_outside_is_untouche
     assert _files(outside) == {"mine.txt"} and (outside.stat().st_mode & 0o777) == 0o755
 
 
+def test_6_make_repro_refuses_linked_output_folders_before_dvc_changes_their_mode(tmp_path):
+    from pipeline.check_outputs import linked_outputs
+
+    root, outside = tmp_path / "repo", tmp_path / "outside"
+    outside.mkdir()
+    (root / "data").mkdir(parents=True)
+    (root / "dvc.yaml").write_text((ROOT / "dvc.yaml").read_text())
+    assert linked_outputs(root) == []
+    (root / "data" / "report").symlink_to(outside, target_is_directory=True)
+    assert linked_outputs(root) == [root / "data" / "report"]
+    assert "$(PY) -m pipeline.check_outputs\n\tdvc repro" in (ROOT / "Makefile").read_text()
+
+
 def test_6_a_link_deeper_in_the_tree_is_caught_at_the_write(tmp_path):
     outside, run = tmp_path / "outside", tmp_path / "run"
     outside.mkdir()
