@@ -18,12 +18,14 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import re
 from dataclasses import dataclass, field
 from typing import Optional
 
 from interllm.config_types import ConfigError, coerce
 
-CACHE_MODES = ("readwrite", "replay", "off")
+# llm.cache_mode (interllm/llm/cache.py); retry_failures: readwrite, but failed answers are asked again
+CACHE_MODES = ("readwrite", "replay", "off", "retry_failures")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean", "prior")  # interllm/planning/costs.py
 SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
 SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/floor_plans.py)
@@ -203,8 +205,7 @@ class LLMConfig:
         _check(self.n_ctx >= 512, "llm.n_ctx", "must be >= 512")
         _check(self.timeout_s > 0, "llm.timeout_s", "must be > 0")
         _check(0 <= self.max_retries <= 10, "llm.max_retries", f"must be in [0, 10], got {self.max_retries}")
-        _check(bool(self.api_key_env) and self.api_key_env.replace("_", "").isalnum(), "llm.api_key_env",
-               f"must be the NAME of an environment variable (e.g. OPENAI_API_KEY), got {self.api_key_env!r}")
+        check_api_key_env(self.api_key_env)
         _choice(self.cache_mode, "llm.cache_mode", CACHE_MODES)
         _check(0 <= self.repair_retries <= 10, "llm.repair_retries", "must be in [0, 10]")
         _check(0.0 <= self.max_failure_share <= 1.0, "llm.max_failure_share",
@@ -226,6 +227,21 @@ class LLMConfig:
                f"{self.oracle_error:g} is the error rate of the oracle (llm=oracle), but llm.backend="
                f"{self.backend!r} asks a model, whose answers it would not change: drop llm.oracle_error, "
                f"or use llm=oracle llm.oracle_error={self.oracle_error:g}")
+
+
+# llm.api_key_env: a POSIX-portable environment variable name (upper case), never a key
+ENV_VAR_NAME = re.compile(r"[A-Z_][A-Z0-9_]{0,63}")
+
+
+def check_api_key_env(value: object) -> None:
+    """Raise :class:`ConfigError` unless ``value`` (llm.api_key_env) looks like an environment variable
+    NAME. The message never shows the value: what was pasted there is often the key itself."""
+    _check(isinstance(value, str) and ENV_VAR_NAME.fullmatch(value) is not None, "llm.api_key_env",
+           "must name the environment variable that holds the API key (upper-case letters, digits and _, not "
+           "starting with a digit, at most 64 characters, e.g. OPENAI_API_KEY), but the value given is not such "
+           "a name: it looks like a key itself. The value is not shown here and was not written anywhere. Fix: "
+           "put the key in an environment variable (export MY_API_KEY=<the key>) and set "
+           "llm.api_key_env=MY_API_KEY")
 
 
 @dataclass

@@ -12,6 +12,7 @@ never asks the model the same question twice. For DVC-tracked runs use `dvc repr
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -19,6 +20,7 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
+from interllm.config import check_api_key_env
 from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, output_error
 from interllm.io import confine_writes, exclusive_folder
 from interllm.stages.pipeline import run_all
@@ -68,5 +70,24 @@ def main(cfg: DictConfig) -> None:
         sys.exit(2)
 
 
+# a command-line llm.api_key_env (also +, ++ and ~ forms; a sweep's values are comma-separated)
+_KEY_ENV_OVERRIDE = re.compile(r"[+~]{0,2}llm\.api_key_env=(.*)", re.S)
+
+
+def check_command_line(argv: list[str]) -> None:
+    """Raise ConfigError when a command-line override sets llm.api_key_env to something that is not an
+    environment variable name (often the key itself). Runs before ``hydra.main``, which writes the
+    overrides to .hydra/overrides.yaml before the config is validated."""
+    for arg in argv:
+        m = _KEY_ENV_OVERRIDE.fullmatch(arg)
+        for value in (m.group(1).split(",") if m else ()):
+            check_api_key_env(value.strip().strip("'\""))
+
+
 if __name__ == "__main__":
+    try:
+        check_command_line(sys.argv[1:])
+    except UserError as e:  # before Hydra writes anything
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
     main()

@@ -116,7 +116,7 @@ def test_2_failures_replayed_from_the_cache_say_so_and_how_to_ask_again(tmp_path
         msg = str(e.value)
         assert "20 of the 20 failed answers came from the LLM cache (llm.cache_dir=" in msg
         assert "the server was not asked again" in msg
-        assert "rerun with llm.cache_mode=off to ask it again" in msg
+        assert "rerun once with llm.cache_mode=retry_failures to ask it again" in msg
     assert "stopping early" in str(early.value) and "candidates stage (call log" in str(end.value)
     assert _files(cache) == stored  # the cache entries are kept as they were
 
@@ -232,7 +232,6 @@ def test_4_a_read_only_or_full_disk_in_a_stage_is_one_message(tmp_path, monkeypa
                                                               wrapped, what, fix):
     import pipeline._common as common
 
-    monkeypatch.setattr(common, "die_with_parent", lambda **kw: None)
     monkeypatch.delenv("DVC_STAGE", raising=False)
     (tmp_path / "params.yaml").write_text(f"data_dir: {tmp_path / 'data'}\n")
     blocked = tmp_path / "data" / "scenes" / "s1" / "scene.json"
@@ -319,7 +318,6 @@ def test_5_dvc_note_only_when_the_cache_holds_the_outputs(tmp_path, monkeypatch,
     _lock(tmp_path, md5)
     (tmp_path / "params.yaml").write_text("planner:\n  M: abc\n")
     monkeypatch.setattr(common, "ROOT", tmp_path)
-    monkeypatch.setattr(common, "die_with_parent", lambda **kw: None)
     monkeypatch.setenv("DVC_STAGE", "scenes")
     monkeypatch.setattr(sys, "argv", ["pipeline.scenes", "--params", str(tmp_path / "params.yaml")])
 

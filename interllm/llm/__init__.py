@@ -10,8 +10,10 @@ OpenAI-compatible server, or the ground-truth oracle).
 Modules: ``types`` (requests and responses), ``backend`` (the Backend protocol and factory),
 ``client`` (cache + call log + schema repair), ``client_state`` (counters, failure share and model
 pin shared by a client's views), ``cache``, ``calllog``, ``schema``, ``health`` (failure share),
-``deadline``, ``prompts``, ``errors``; backends ``embedded`` (with ``model_files``, the GGUF, and
-``llama_internals``, the llama-cpp-python internals it needs and their start-up check),
+``deadline``, ``retry`` (Retry-After and backoff within the deadline), ``redact`` (keys out of
+quoted server text), ``entry_layout`` (the cached responses' layouts), ``prompts``, ``errors``;
+backends ``embedded`` (with ``model_files``, the GGUF, and ``llama_internals``, the llama-cpp-python
+internals it needs and their start-up check),
 ``ollama_backend``, ``openai_backend`` and ``oracle_backend``; ``testing`` holds a deterministic
 test backend (never imported here).
 """

@@ -7,11 +7,19 @@ summary, the response and a sha256 checksum of the canonical response JSON. They
 timestamps and no latencies, so they are byte-stable and small enough to commit to git.
 
 Modes: ``readwrite`` (default: hit -> stored response, miss -> backend then store), ``replay``
-(a miss raises :class:`CacheMissError`), ``off`` (neither read nor written).
+(a miss raises :class:`CacheMissError`), ``off`` (neither read nor written), ``retry_failures``
+(readwrite, except that a stored *failure* — an answer that stayed invalid, ``"failed": true`` — is
+a miss: the backend is asked again and its new outcome replaces the failure, so that a later
+readwrite run gets the new answer). A failure is stored like an answer so that a replay and every
+process meet the same outcome; after the model or server has been fixed, one run with
+``llm.cache_mode=retry_failures`` asks again for exactly the failed requests (the failure-share
+stop advises it when failures came from the cache). ``off`` changes no entry.
 
 Writes are atomic (temp file in the same folder + ``os.replace``), so several processes writing
-at once lose nothing. A corrupt entry (bad JSON, wrong layout, checksum mismatch) is reported
-with ``logging.warning``, treated as a miss and overwritten by the next store.
+at once lose nothing. A corrupt entry (bad JSON, checksum mismatch, or a response whose layout is
+not the one the reader expects: ``layout`` of :meth:`ResponseCache.get`, see
+:mod:`interllm.llm.entry_layout`) is reported with ``logging.warning`` naming the entry file,
+treated as a miss and overwritten by the next store.
 """
 
 from __future__ import annotations
@@ -20,7 +28,7 @@ import hashlib
 import json
 import logging
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Optional
 
@@ -32,6 +40,9 @@ from interllm.io import atomic_create_bytes, atomic_write_bytes
 log = logging.getLogger(__name__)
 
 CACHE_FORMAT = 1  # bump when the entry layout or the key recipe changes
+WRITING_MODES = ("readwrite", "retry_failures")
+# a response's layout check: what is wrong with it (for the warning), or None
+Layout = Callable[[dict], Optional[str]]
 
 
 class CacheMissError(UserError, RuntimeError):
@@ -86,11 +97,17 @@ class ResponseCache:
         self.misses = 0
         self.corrupt = 0
         self.writable = True  # False after a failed write: the run goes on without caching
+        self._retrying: dict[str, str] = {}  # retry_failures: key -> checksum of the failure asked again
+
+    @property
+    def writes(self) -> bool:
+        """Whether this mode stores answers (readwrite, retry_failures)."""
+        return self.mode in WRITING_MODES
 
     def path_for(self, key: str) -> Path:
         return self.dir / key[:2] / f"{key}.json"
 
-    def _read(self, key: str) -> Optional[dict]:
+    def _read(self, key: str, layout: Optional[Layout] = None) -> Optional[dict]:
         path = self.path_for(key)
         try:
             data = path.read_bytes()
@@ -108,6 +125,9 @@ class ResponseCache:
             resp = entry["response"]
             if response_checksum(resp) != entry["checksum"]:
                 raise CacheCorruptError("response checksum mismatch")
+            problem = layout(resp) if layout is not None else None
+            if problem is not None:
+                raise CacheCorruptError(f"a response layout this reader does not know: {problem}")
             return resp
         except (ValueError, KeyError, TypeError, RecursionError) as e:  # UnicodeDecodeError is a ValueError
             self.corrupt += 1
@@ -115,14 +135,19 @@ class ResponseCache:
                         "overwriting it", path, e)
             return None
 
-    def get(self, key: str, purpose: str = "", describe: str = "") -> Optional[dict]:
+    def get(self, key: str, purpose: str = "", describe: str = "", layout: Optional[Layout] = None) -> Optional[dict]:
         """Stored response dict for ``key`` or ``None`` on a miss.
 
-        In replay mode a miss raises :class:`CacheMissError` naming the purpose and key.
+        layout: the reader's check of the response (an entry that fails it is a corrupt one). In
+        replay mode a miss raises :class:`CacheMissError` naming the purpose and key; in
+        retry_failures mode a stored failure is a miss, which the next :meth:`put` of ``key`` replaces.
         """
         if self.mode == "off":
             return None
-        resp = self._read(key)
+        resp = self._read(key, layout)
+        if resp is not None and self.mode == "retry_failures" and resp.get("failed") is True:
+            self._retrying[key] = response_checksum(resp)
+            resp = None
         if resp is not None:
             self.hits += 1
             return resp
@@ -135,14 +160,18 @@ class ResponseCache:
                 f"or restore {self.dir} from git/DVC.")
         return None
 
-    def put(self, key: str, request_summary: dict, response: dict) -> dict:
-        """Store an entry atomically (no-op unless mode is ``readwrite``) and return the response the
+    def put(self, key: str, request_summary: dict, response: dict, layout: Optional[Layout] = None) -> dict:
+        """Store an entry atomically (no-op unless the mode writes) and return the response the
         cache holds for ``key``: the first writer wins, so when another process (a mission worker,
         a parallel job) stored an answer to the same request meanwhile, that answer is returned and
-        kept, and every process goes on with the answer a replay will give. A cache folder that
-        cannot be written (read-only, full, an entry path taken by a folder) costs the caching,
-        never the answer: one warning, and this cache stops writing for the rest of the run."""
-        if self.mode != "readwrite" or not self.writable:
+        kept, and every process goes on with the answer a replay will give. The one entry replaced
+        is a corrupt one (``layout`` as in :meth:`get`), or in retry_failures mode the failure this
+        cache's :meth:`get` found for ``key`` (unless another process has replaced it meanwhile: then
+        its answer wins). A cache folder that cannot be written (read-only, full, an entry path taken
+        by a folder) costs the caching, never the answer: one warning, and this cache stops writing
+        for the rest of the run."""
+        retried = self._retrying.pop(key, None)
+        if not self.writes or not self.writable:
             return response
         entry = {"cache_format": CACHE_FORMAT, "key": key, "request": request_summary,
                  "response": response, "checksum": response_checksum(response)}
@@ -151,10 +180,10 @@ class ResponseCache:
         try:
             if atomic_create_bytes(path, data):
                 return response
-            held = self._read(key)
-            if held is not None:
+            held = self._read(key, layout)
+            if held is not None and (retried is None or response_checksum(held) != retried):
                 return held
-            atomic_write_bytes(path, data)  # a corrupt entry: this answer replaces it
+            atomic_write_bytes(path, data)  # a corrupt entry, or the failure asked again: this answer replaces it
         except OSError as e:
             self.writable = False
             log.warning("LLM cache %s cannot be written (%s: %s); answers of this run are not cached. Make "

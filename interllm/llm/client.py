@@ -28,6 +28,7 @@ from interllm.llm.backend import Backend, make_backend
 from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
 from interllm.llm.calllog import CallLog, make_record
 from interllm.llm.client_state import ClientCore, ClientStats
+from interllm.llm.entry_layout import complete_problem, score_problem
 from interllm.llm.errors import LLMOutputError
 from interllm.llm.prompts import template_hash
 from interllm.llm.schema import check_answer, validate_schema
@@ -161,7 +162,7 @@ class LLMClient:
             core.stats.complete_calls += 1
             try:
                 hit = core.cache.get(key, request.purpose, describe=f"{len(request.messages)} messages, "
-                                     f"sample_index={request.options.sample_index}")
+                                     f"sample_index={request.options.sample_index}", layout=_complete_layout(request))
             except CacheMissError as e:
                 core.stats.failures += 1
                 self._log(kind="complete", purpose=request.purpose, context=labels, key=key, tokens_in=0,
@@ -224,11 +225,12 @@ class LLMClient:
             if err is None:
                 response = {"text": text, "tokens_in": tin, "tokens_out": tout, "errors": errors,
                             "attempts": attempt + 1}
-                held = core.cache.put(key, summary, response)
+                held = core.cache.put(key, summary, response, layout=_complete_layout(request))
                 if held is not response and held.get("failed"):  # another process stored a failure first
                     self._raise_output_failure(request, key, labels, held, latency, reused, cached=False)
                 if held is not response:  # another process answered first: go on with the cached answer
-                    text, tin, tout, errors = held["text"], held["tokens_in"], held["tokens_out"], list(held["errors"])
+                    text, tin, tout = held["text"], held["tokens_in"], held["tokens_out"]
+                    errors = list(held.get("errors", []))
                     parsed = json.loads(text) if request.schema is not None else None
                 self._log(kind="complete", purpose=request.purpose, context=labels, key=key,
                           tokens_in=tin, tokens_out=tout, latency=latency, cached=False,
@@ -247,15 +249,16 @@ class LLMClient:
         # process asking the same request meet the same failure, not a luckier sample
         failed = {"failed": True, "text": text, "tokens_in": tin, "tokens_out": tout, "errors": errors,
                   "attempts": core.cfg.repair_retries + 1}
-        held = core.cache.put(key, summary, failed)
+        held = core.cache.put(key, summary, failed, layout=_complete_layout(request))
         if held is not failed and not held.get("failed"):  # another process stored an answer first
             parsed = json.loads(held["text"]) if request.schema is not None else None
+            held_errors = tuple(held.get("errors", ()))
             self._log(kind="complete", purpose=request.purpose, context=labels, key=key, tokens_in=held["tokens_in"],
                       tokens_out=held["tokens_out"], latency=latency, cached=False, prompt_tokens_reused=reused,
-                      errors=tuple(held["errors"]), sample_index=request.options.sample_index)
+                      errors=held_errors, sample_index=request.options.sample_index)
             return LLMResponse(text=held["text"], parsed=parsed, tokens_in=held["tokens_in"],
                                tokens_out=held["tokens_out"], latency=latency, cached=False, key=key,
-                               prompt_tokens_reused=reused, errors=tuple(held["errors"]))
+                               prompt_tokens_reused=reused, errors=held_errors)
         self._raise_output_failure(request, key, labels, held, latency, reused, cached=False)
 
     def _raise_output_failure(self, request: LLMRequest, key: str, labels: tuple, entry: dict, latency: float,
@@ -292,15 +295,16 @@ class LLMClient:
             key, summary = self.score_key(request)
             core.stats.calls += 1
             core.stats.score_calls += 1
+            layout = _score_layout(request)
             try:
                 hit = core.cache.get(key, request.purpose,
-                                     describe=f"score of {len(request.continuations)} continuations")
+                                     describe=f"score of {len(request.continuations)} continuations", layout=layout)
             except CacheMissError as e:
                 core.stats.failures += 1
                 self._log(kind="score", purpose=request.purpose, context=labels, key=key, tokens_in=0,
                           tokens_out=0, latency=0.0, cached=False, error=str(e))
                 raise
-            if hit is not None and len(hit.get("raw", ())) == len(request.continuations):
+            if hit is not None:  # its layout was checked: as many finite scores as continuations
                 core.stats.cache_hits += 1
                 self._log(kind="score", purpose=request.purpose, context=labels, key=key,
                           tokens_in=hit["tokens_in"], tokens_out=0, latency=0.0, cached=True)
@@ -325,7 +329,7 @@ class LLMClient:
             scores = ([r - c for r, c in zip(raw, sc.calibration, strict=False)] if sc.calibration is not None else raw)
             response = {"raw": raw, "scores": scores, "tokens_in": sc.tokens_in, "method": sc.method,
                         "calibration": list(sc.calibration) if sc.calibration is not None else None}
-            held = core.cache.put(key, summary, response)
+            held = core.cache.put(key, summary, response, layout=layout)
             if held is not response:  # another process answered first: go on with the cached answer
                 raw, scores = list(held["raw"]), list(held["scores"])
             self._log(kind="score", purpose=request.purpose, context=labels, key=key,
@@ -348,18 +352,33 @@ class LLMClient:
         self.close()
 
 
+def _complete_layout(request: LLMRequest) -> Callable[[dict], Optional[str]]:
+    """The cache's layout check of a generation request's stored outcome."""
+    return lambda resp: complete_problem(resp, request.schema is not None)
+
+
+def _score_layout(request: ScoreRequest) -> Callable[[dict], Optional[str]]:
+    """The cache's layout check of a score request's stored scores."""
+    return lambda resp: score_problem(resp, len(request.continuations))
+
+
 def make_client(cfg: LLMConfig, call_log_path: Optional[str | Path] = None,
                 context: Sequence[tuple[str, str]] | dict = (), *, backend: Optional[Backend] = None,
                 call_log_callback: Optional[Callable[[dict], Any]] = None,
-                cache_dir: Optional[str | Path] = None) -> LLMClient:
+                cache_dir: Optional[str | Path] = None, probe: Optional[dict] = None) -> LLMClient:
     """Build the client for ``cfg``.
 
     call_log_path: JSONL call log (None: no file); context: default call-log labels, e.g.
     ``{"stage": "candidates"}``; backend: inject a backend (tests: :class:`DeterministicBackend`);
     call_log_callback: receives each call-log record (e.g. the MCAP recorder); cache_dir:
-    overrides ``cfg.cache_dir``.
+    overrides ``cfg.cache_dir``; probe: what the stage's conformance probe recorded (``preflight``'s
+    result, ``llm_probe.json``): a backend that probes its server takes it (``adopt_probe``) instead
+    of probing on its own, so every process of a stage uses one structured-output mode.
     """
     be = backend if backend is not None else make_backend(cfg)
+    adopt = getattr(be, "adopt_probe", None)
+    if probe is not None and adopt is not None:
+        adopt(probe)
     cache = ResponseCache(cache_dir if cache_dir is not None else cfg.cache_dir, cfg.cache_mode)
     call_log = (CallLog(call_log_path, call_log_callback)
                 if call_log_path is not None or call_log_callback is not None else None)

@@ -93,7 +93,7 @@ class ClientCore:
                 log.info("model identity of %s from %s (backend unavailable: %s)", name, pin_path, e)
             else:
                 raise
-        if self.cache.mode == "readwrite" and self.cache.writable and pins.get(name) != mid:
+        if self.cache.writes and self.cache.writable and pins.get(name) != mid:
             pins[name] = mid
             try:
                 atomic_write_text(pin_path, json.dumps(pins, indent=1, sort_keys=True) + "\n")

@@ -24,10 +24,13 @@ class DeadlineExceeded(UserError, TimeoutError):
     """A backend call took longer than its whole-call deadline (``llm.timeout_s``)."""
 
 
-def call_with_deadline(fn: Callable[[], T], timeout_s: float, describe: str) -> T:
+def call_with_deadline(fn: Callable[[], T], timeout_s: float, describe: str,
+                       configured_s: float | None = None) -> T:
     """``fn()``, or :class:`DeadlineExceeded` after ``timeout_s`` [s] of waiting for it.
 
-    describe: what is called, for the message (e.g. "Ollama chat at http://127.0.0.1:11434").
+    describe: what is called, for the message (e.g. "Ollama chat at http://127.0.0.1:11434");
+    configured_s: the ``llm.timeout_s`` the message names when ``timeout_s`` is only what is left of
+    it (an attempt after a retry; default: ``timeout_s``).
     """
     box: dict = {}
     done = threading.Event()
@@ -42,7 +45,7 @@ def call_with_deadline(fn: Callable[[], T], timeout_s: float, describe: str) -> 
 
     threading.Thread(target=run, daemon=True, name="llm-call").start()
     if not done.wait(timeout_s):
-        raise deadline_exceeded(describe, timeout_s)
+        raise deadline_exceeded(describe, timeout_s if configured_s is None else configured_s)
     if "error" in box:
         raise box["error"]
     return box["value"]

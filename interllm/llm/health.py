@@ -49,7 +49,8 @@ def failure_share_message(*, backend: str, model: str, n_calls: int, n_failed: i
     """The failure-share stop: ``n_failed`` of ``n_calls`` calls to ``backend``/``model`` failed,
     over the share ``bound`` (fraction); ``sample``: one failed answer; ``where``: the stage or log.
     When the cache answered ``n_cached`` of the failed calls (failures stored by an earlier run in
-    ``cache_dir``, replayed without asking the server), it says so and how to ask again."""
+    ``cache_dir``, replayed without asking the server), it says so and how to ask again: a run with
+    ``llm.cache_mode=retry_failures``, which replaces the stored failures with the new outcomes."""
     share = n_failed / max(1, n_calls)
     check = ("the model and server (a base model in generate mode? the wrong llm.model?), or raise "
              "llm.max_failure_share to go on anyway")
@@ -57,8 +58,9 @@ def failure_share_message(*, backend: str, model: str, n_calls: int, n_failed: i
     if n_cached:
         advice = (f"{n_cached} of the {n_failed} failed answers came from the LLM cache (llm.cache_dir="
                   f"{cache_dir}): they failed when an earlier run asked, and the server was not asked again. "
-                  f"If the model or server has been fixed since, rerun with llm.cache_mode=off to ask it again; "
-                  f"else check {check}")
+                  f"If the model or server has been fixed since, rerun once with llm.cache_mode=retry_failures "
+                  f"to ask it again: the new answers replace the failed ones in the cache, and later runs "
+                  f"(llm.cache_mode=readwrite) get them; else check {check}")
     return (f"{where}: {n_failed} of {n_calls} LLM calls ({100 * share:.0f}%) to backend {backend!r} "
             f"(model {model!r}) failed or gave unparseable answers, above llm.max_failure_share="
             f"{bound:g}; sample answer: {sample[:200]!r}. {advice}")

@@ -10,13 +10,22 @@ repair (``llm.repair_retries``) handle what comes back.
 Scoring: ``completions`` with ``echo`` and ``logprobs`` gives the log-probabilities of the prompt's
 own tokens (vLLM and llama-cpp-python's server do; OpenAI's chat models do not): the score of a
 continuation is the mean log-probability of the tokens after the prompt text. A server without
-them is refused before the experiment with the mode to use instead.
+them is refused before the experiment with the mode to use instead; log-probabilities that are not
+finite numbers are an :class:`OpenAIProtocolError` naming the URL and the field (never cached).
 
-Faults: every call has a whole-call deadline (``llm.timeout_s``), which the client library's own
-timeout (set well past it) never beats, so a hang always reads as one; 429, 5xx and connection
-errors are retried ``llm.max_retries`` times with exponential backoff; an unreachable server, a
-missing model or a body that is not the API's JSON is an error naming the URL and the fix. The API
-key is read from the environment variable named by ``llm.api_key_env`` and never written anywhere.
+Faults: every call has a whole-call deadline (``llm.timeout_s``, its retries included), which the
+client library's own timeout (set well past it) never beats, so a hang always reads as one; 429,
+5xx and connection errors are retried ``llm.max_retries`` times, after the server's Retry-After or
+an exponential backoff (:mod:`interllm.llm.retry`), by the probe as by every request; a 5xx or 429
+that persists is an :class:`OpenAIServerError` naming the URL and the status (a server's fault, not
+a missing capability); an unreachable server, a missing model or a body that is not the API's JSON
+is an error naming the URL and the fix. The API key is read from the environment variable named by
+``llm.api_key_env``, never written anywhere, and redacted from every server text quoted in a message
+(:mod:`interllm.llm.redact`).
+
+One probe per stage: :meth:`OpenAIBackend.adopt_probe` takes what the stage's probe recorded
+(``llm_probe.json``), so every worker process of a stage uses the structured-output mode that
+provenance.json records, instead of probing on its own.
 
 Cache identity (``model_id``): the model name and the fingerprint the server reports
 (``system_fingerprint``), not the URL, so a model moved to another host keeps its cache.
@@ -26,8 +35,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any, Optional, TypeVar
@@ -36,13 +45,15 @@ from interllm.config import ConfigError, LLMConfig
 from interllm.errors import UserError
 from interllm.llm.backend import BACKENDS, Generation, Scores
 from interllm.llm.deadline import LIBRARY_TIMEOUT, DeadlineExceeded, call_with_deadline, deadline_exceeded
+from interllm.llm.redact import env_secrets, redact
+from interllm.llm.retry import RETRY_AFTER_STATUSES, CallBudget, retry_after_s
 from interllm.llm.schema import check_answer
 from interllm.llm.types import LLMOptions, Message
 
 T = TypeVar("T")
 SCHEMA_MODES = ("json_schema", "json_object", "prompt")  # strongest first
 NO_KEY = "not-needed"  # local servers take any key; the client insists on one
-BACKOFF_S = 0.5  # [s] first retry delay, doubled per retry
+SCORE_MODES = ("proposal_mode", "cost_inference_mode")  # the llm keys whose "score" needs log-probabilities
 
 
 class OpenAIUnavailable(UserError, RuntimeError):
@@ -51,7 +62,12 @@ class OpenAIUnavailable(UserError, RuntimeError):
 
 class OpenAIProtocolError(UserError, RuntimeError):
     """The server answered, but with a body that is not the OpenAI API's JSON (an HTML page, a proxy's
-    text)."""
+    text), or with values the API does not allow (log-probabilities that are not finite numbers)."""
+
+
+class OpenAIServerError(UserError, RuntimeError):
+    """The server failed (HTTP 5xx) or kept rate-limiting (HTTP 429) through the retries: a fault of the
+    server, not a capability it lacks."""
 
 
 @dataclass
@@ -72,15 +88,21 @@ class ProbeResult:
         return asdict(self)
 
 
-def _retryable(e: BaseException, server_errors: bool) -> bool:
-    """429 and connection errors are always worth a retry; 5xx only where ``server_errors`` (the
-    probe's format checks must not retry a server that answers an unknown format with a 500)."""
+def _retryable(e: BaseException) -> bool:
+    """429, 5xx and connection errors are worth a retry (a timeout is not: the deadline is spent)."""
     import openai  # lazy: the optional dependency of this backend
 
     if isinstance(e, openai.APITimeoutError):
         return False
-    return isinstance(e, (openai.RateLimitError, openai.APIConnectionError)) or \
-        (server_errors and isinstance(e, openai.InternalServerError))
+    return isinstance(e, (openai.RateLimitError, openai.InternalServerError, openai.APIConnectionError))
+
+
+def _retry_after(e: BaseException) -> Optional[float]:
+    """Seconds [s] a 429 or 503 answer asks to wait (its Retry-After), else None."""
+    response = getattr(e, "response", None)
+    if getattr(e, "status_code", None) not in RETRY_AFTER_STATUSES or response is None:
+        return None
+    return retry_after_s(response.headers)
 
 
 @BACKENDS.register("openai", label="OpenAI-compatible")
@@ -108,32 +130,38 @@ class OpenAIBackend:
                                   timeout=LIBRARY_TIMEOUT * self.cfg.timeout_s)
         return self._client
 
-    def _call(self, what: str, fn: Callable[[Any], T], retry: bool = True) -> T:
-        """``fn(client)`` with the whole-call deadline, bounded retries (of 5xx too with ``retry``) and
-        named errors."""
+    def _quote(self, text: object, limit: int) -> str:
+        """A server's ``text`` fit to quote in a message: the key redacted, then cut to ``limit`` characters."""
+        return redact(text, env_secrets([self.cfg.api_key_env]))[:limit]
+
+    def _call(self, what: str, fn: Callable[[Any], T]) -> T:
+        """``fn(client)`` within the whole-call deadline (retries included), with bounded retries of 429,
+        5xx and connection errors (after the server's Retry-After) and named errors."""
         url = f"{self.cfg.base_url}{what}"
         describe = f"the OpenAI-compatible call to {url} (llm.base_url)"
-        retries = self.cfg.max_retries
-        for attempt in range(retries + 1):
+        budget = CallBudget(self.cfg.timeout_s, self.cfg.max_retries)
+        while True:
             client = self.client
             self.requests += 1
             try:
-                result = call_with_deadline(lambda c=client: fn(c), self.cfg.timeout_s, describe)
+                result = call_with_deadline(lambda c=client: fn(c), budget.start_attempt(), describe,
+                                            configured_s=self.cfg.timeout_s)
             except DeadlineExceeded:
                 self._client = None  # drop the stuck connection
                 raise
             except Exception as e:  # noqa: BLE001 - classified below
-                if _retryable(e, server_errors=retry) and attempt < retries:
-                    time.sleep(BACKOFF_S * 2 ** attempt)
-                    continue
-                raise self._named(e, url, describe) from None
+                if not (_retryable(e) and budget.wait_to_retry(
+                        _retry_after(e), f"the server at {url} (llm.base_url) answered HTTP "
+                                         f"{getattr(e, 'status_code', '')}".rstrip())):
+                    raise self._named(e, url, describe, budget.attempts) from None
+                continue
             if isinstance(result, str):  # the library's answer to a body it could not read as JSON
-                raise self._not_json(url, f"got text: {result[:80]!r}")
+                raise self._not_json(url, f"got text: {self._quote(result, 80)!r}")
             return result
-        raise AssertionError("unreachable")  # the loop returns or raises
 
-    def _named(self, e: Exception, url: str, describe: str) -> Exception:
-        """What a failed call raises: an error naming the URL and the fix, or ``e`` itself (a bug)."""
+    def _named(self, e: Exception, url: str, describe: str, attempts: int = 1) -> Exception:
+        """What a failed call raises after ``attempts`` attempts: an error naming the URL and the fix, or
+        ``e`` itself (a bug)."""
         import openai  # lazy: the optional dependency of this backend
 
         if isinstance(e, openai.APITimeoutError):  # the library's own timeout, set past the deadline
@@ -142,18 +170,30 @@ class OpenAIBackend:
         if isinstance(e, openai.APIConnectionError):
             return OpenAIUnavailable(
                 f"the OpenAI-compatible server at {self.cfg.base_url} (llm.base_url) is not reachable "
-                f"({type(e).__name__}: {e}); start it (e.g. `python -m llama_cpp.server --model "
-                f"<file.gguf>`, `vllm serve <model>`, `ollama serve`) or fix llm.base_url")
+                f"({type(e).__name__}: {self._quote(e, 300)}); start it (e.g. `python -m llama_cpp.server "
+                f"--model <file.gguf>`, `vllm serve <model>`, `ollama serve`) or fix llm.base_url")
         if isinstance(e, openai.AuthenticationError):
             return OpenAIUnavailable(f"{url} refused the API key: set the environment variable "
                                      f"{self.cfg.api_key_env} (llm.api_key_env) to a valid key")
         if isinstance(e, openai.NotFoundError):
-            return OpenAIUnavailable(f"{url}: not found ({e}); is llm.model={self.cfg.model!r} served there "
-                                     f"(see {self.cfg.base_url}/models)?")
+            return OpenAIUnavailable(f"{url}: not found ({self._quote(e, 300)}); is llm.model={self.cfg.model!r} "
+                                     f"served there (see {self.cfg.base_url}/models)?")
+        tries = (f"{attempts} attempt{'s' if attempts != 1 else ''} (llm.max_retries={self.cfg.max_retries}, "
+                 f"within llm.timeout_s={self.cfg.timeout_s:g} s)")
+        if isinstance(e, openai.RateLimitError):
+            return OpenAIServerError(
+                f"the server at {url} (llm.base_url) kept rate-limiting: HTTP 429 after {tries}: "
+                f"{self._quote(e, 300)}. Wait and rerun (answers already received are in the LLM cache), send "
+                f"fewer requests at once (jobs=1), or raise llm.max_retries or llm.timeout_s")
+        if isinstance(e, openai.InternalServerError):
+            return OpenAIServerError(
+                f"the server at {url} (llm.base_url) failed: HTTP {e.status_code} after {tries}: "
+                f"{self._quote(e, 300)}. A server error, not a capability the server lacks: check the server "
+                f"(its log, its load) and rerun when it answers")
         if isinstance(e, openai.APIStatusError):
-            return OpenAIUnavailable(f"{url} answered HTTP {e.status_code}: {str(e)[:300]}")
+            return OpenAIUnavailable(f"{url} answered HTTP {e.status_code}: {self._quote(e, 300)}")
         if isinstance(e, (ValueError, KeyError, TypeError, AttributeError)):  # a 200 whose body is not JSON
-            return self._not_json(url, f"{type(e).__name__}: {str(e)[:200]}")
+            return self._not_json(url, f"{type(e).__name__}: {self._quote(e, 200)}")
         return e
 
     def _not_json(self, url: str, detail: str) -> OpenAIProtocolError:
@@ -170,10 +210,14 @@ class OpenAIBackend:
         fp = self.probe().fingerprint
         return hashlib.sha256(f"{self.cfg.model}\x1f{fp}".encode()).hexdigest()
 
+    def _needs_scores(self) -> list[str]:
+        """The llm keys whose mode (score) needs prompt log-probabilities."""
+        return [k for k in SCORE_MODES if getattr(self.cfg, k) == "score"]
+
     def check(self) -> None:
         """Before any stage writes: server up, model served, the modes' needs met (raises)."""
         p = self.probe()
-        needs_scores = [k for k in ("proposal_mode", "cost_inference_mode") if getattr(self.cfg, k) == "score"]
+        needs_scores = self._needs_scores()
         if needs_scores and not p.logprobs:
             raise OpenAIUnavailable(
                 f"the server at {self.cfg.base_url} returns no prompt log-probabilities (completions with echo "
@@ -181,6 +225,22 @@ class OpenAIBackend:
                 f"llm.proposal_mode=generate llm.cost_inference_mode=generate")
 
     # -- the probe ------------------------------------------------------------------------------
+    def adopt_probe(self, recorded: Any) -> bool:
+        """Take what a probe of this server recorded (``ProbeResult.to_dict()``: the stage's
+        ``llm_probe.json``) instead of probing again, so every process of a stage uses the one
+        structured-output mode that provenance.json records. Nothing is taken (False) when the record
+        is of another server or model, or unreadable: this backend then probes on its own."""
+        if not isinstance(recorded, dict):
+            return False
+        try:
+            p = ProbeResult(**{k: recorded[k] for k in ProbeResult.__dataclass_fields__ if k in recorded})
+        except TypeError:
+            return False
+        if (p.base_url, p.model) != (self.cfg.base_url, self.cfg.model) or p.json_schema not in SCHEMA_MODES:
+            return False
+        self._probe, self._schema_mode = p, p.json_schema
+        return True
+
     def probe(self) -> ProbeResult:
         """Measure what the server does (once per backend); see :class:`ProbeResult`."""
         if self._probe is not None:
@@ -197,45 +257,72 @@ class OpenAIBackend:
             raise OpenAIUnavailable(f"model {self.cfg.model!r} (llm.model) is not served at {self.cfg.base_url}; "
                                     f"it serves {p.models_listed} (llama-cpp-python: --model_alias; vLLM: "
                                     f"--served-model-name; Ollama: `ollama pull`)")
+        self._schema_mode = p.json_schema = self._probe_schema_mode(p)
+        seeded = [self._chat([{"role": "user", "content": "Name a fruit."}], None, "prompt", max_tokens=8,
+                             temperature=1.0, seed=7, top_p=1.0).choices[0].message.content for _ in range(2)]
+        p.seed_honoured = seeded[0] == seeded[1]
+        p.logprobs = self._probe_logprobs(p.notes)
+        self._probe = p
+        return p
+
+    def _probe_schema_mode(self, p: ProbeResult) -> str:
+        """The strongest of SCHEMA_MODES the server accepts and keeps to (``p.notes`` get why a stronger
+        one was not taken, ``p.fingerprint`` the first answer's). Each check is retried like any request
+        (a transient 429 or 5xx changes nothing); a form the server refuses (HTTP 4xx, or a 5xx that
+        persists while a weaker form works: llama-cpp-python's server answers an unknown form with a
+        500) is passed over; a 5xx that persists even without a form is a server error (raised)."""
         schema = {"type": "object", "properties": {"color": {"type": "string", "enum": ["red", "blue"]}},
                   "required": ["color"], "additionalProperties": False}
         msgs = [{"role": "user", "content": "Pick a color. Answer in JSON."}]
-        for mode in SCHEMA_MODES:  # the strongest form the server accepts and keeps to
+        notes = p.notes
+        for mode in SCHEMA_MODES:
             try:
-                r = self._chat(msgs, None if mode == "prompt" else schema, mode, retry=False, max_tokens=24,
+                r = self._chat(msgs, None if mode == "prompt" else schema, mode, max_tokens=24,
                                temperature=0.0, seed=1, top_p=1.0)
-            except OpenAIUnavailable as e:
-                p.notes.append(f"response_format {mode}: refused ({str(e)[:120]})")
+            except (OpenAIUnavailable, OpenAIServerError) as e:
+                if mode == "prompt" and isinstance(e, OpenAIServerError):
+                    raise
+                notes.append(f"response_format {mode}: refused ({str(e)[:120]})")
                 continue
             text = r.choices[0].message.content or ""
             p.fingerprint = p.fingerprint or str(r.system_fingerprint or "")
             if mode == "prompt" or _valid(text, schema):
-                p.json_schema = mode
-                break
-            p.notes.append(f"response_format {mode}: accepted but the answer broke the schema ({text[:60]!r})")
-        if p.json_schema == "prompt":
-            p.notes.append("the server enforces no JSON schema: answers are validated and repaired")
-        self._schema_mode = p.json_schema
-        seeded = [self._chat([{"role": "user", "content": "Name a fruit."}], None, "prompt", max_tokens=8,
-                             temperature=1.0, seed=7, top_p=1.0).choices[0].message.content for _ in range(2)]
-        p.seed_honoured = seeded[0] == seeded[1]
+                if mode == "prompt":
+                    notes.append("the server enforces no JSON schema: answers are validated and repaired")
+                return mode
+            notes.append(f"response_format {mode}: accepted but the answer broke the schema "
+                         f"({self._quote(text, 60)!r})")
+        return "untested"  # every form refused (a 4xx to a plain chat too)
+
+    def _probe_logprobs(self, notes: list[str]) -> bool:
+        """Whether echoed completions carry the prompt's log-probabilities. A server that fails or answers
+        values the API does not allow (a persistent 5xx, NaN) is not one that lacks them: its error is
+        raised where a mode needs scores, else noted."""
         try:
-            self._prompt_logprobs("The cat sat on the", " mat", retry=False)
-            p.logprobs = True
-        except OpenAIUnavailable as e:
-            p.notes.append(f"no prompt log-probabilities ({str(e)[:120]})")
-        self._probe = p
-        return p
+            self._prompt_logprobs("The cat sat on the", " mat")
+            return True
+        except OpenAIUnavailable as e:  # refused, or answered without them: the server lacks them
+            notes.append(f"no prompt log-probabilities ({str(e)[:120]})")
+        except OpenAIServerError as e:
+            if self._needs_scores():
+                raise OpenAIServerError(f"{e} (if its answer says that it cannot echo prompt log-probabilities, "
+                                        f"use llm.proposal_mode=generate llm.cost_inference_mode=generate)") from None
+            notes.append(f"prompt log-probabilities untested: /completions failed ({str(e)[:200]})")
+        except OpenAIProtocolError as e:
+            if self._needs_scores():
+                raise
+            notes.append(f"prompt log-probabilities unusable ({str(e)[:200]})")
+        return False
 
     # -- generation -----------------------------------------------------------------------------
-    def _chat(self, messages: list[dict], schema: Optional[dict], mode: str, retry: bool = True, **options: Any):
+    def _chat(self, messages: list[dict], schema: Optional[dict], mode: str, **options: Any):
         kwargs: dict[str, Any] = dict(model=self.cfg.model, messages=messages, **options)
         if schema is not None and mode == "json_schema":
             kwargs["response_format"] = {"type": "json_schema",
                                          "json_schema": {"name": "answer", "schema": schema, "strict": False}}
         elif schema is not None and mode == "json_object":
             kwargs["response_format"] = {"type": "json_object", "schema": schema}
-        return self._call("/chat/completions", lambda c: c.chat.completions.create(**kwargs), retry)
+        return self._call("/chat/completions", lambda c: c.chat.completions.create(**kwargs))
 
     def generate(self, messages: Sequence[Message], schema: Optional[dict], options: LLMOptions,
                  seed: int) -> Generation:
@@ -253,25 +340,54 @@ class OpenAIBackend:
                           truncated=choice.finish_reason == "length")
 
     # -- scoring --------------------------------------------------------------------------------
-    def _prompt_logprobs(self, prompt: str, continuation: str, retry: bool = True) -> tuple[float, int]:
+    def _prompt_logprobs(self, prompt: str, continuation: str) -> tuple[float, int]:
         """(mean log-probability of the continuation's tokens, prompt tokens) from an echoed completion."""
         text = prompt + continuation
         r = self._call("/completions", lambda c: c.completions.create(
-            model=self.cfg.model, prompt=text, max_tokens=1, temperature=0.0, echo=True, logprobs=1), retry)
-        lp = r.choices[0].logprobs
-        if lp is None or not lp.token_logprobs or lp.text_offset is None:
-            raise OpenAIUnavailable(f"{self.cfg.base_url}/completions returned no prompt log-probabilities "
-                                    f"(echo=true, logprobs=1)")
-        n_prompt = int(getattr(r.usage, "prompt_tokens", 0) or 0) or len(lp.tokens)
-        vals = []
-        for tok, off, v in zip(lp.tokens[:n_prompt], lp.text_offset[:n_prompt], lp.token_logprobs[:n_prompt],
-                               strict=False):
-            if off + len(tok) > len(prompt) and off < len(text) and v is not None:
-                vals.append(float(v))
+            model=self.cfg.model, prompt=text, max_tokens=1, temperature=0.0, echo=True, logprobs=1))
+        tokens, offsets, values, n_prompt = self._read_logprobs(r)
+        vals = [v for tok, off, v in zip(tokens, offsets, values, strict=False)
+                if off + len(tok) > len(prompt) and off < len(text) and v is not None]
         if not vals:
             raise OpenAIUnavailable(f"{self.cfg.base_url}/completions: no token of {continuation!r} in the echoed "
                                     f"prompt")
         return sum(vals) / len(vals), n_prompt
+
+    def _read_logprobs(self, r: Any) -> tuple[list[str], list[int], list[Optional[float]], int]:
+        """(tokens, text offsets, log-probabilities, prompt tokens) of an echoed completion, the prompt's
+        tokens only; raises :class:`OpenAIUnavailable` when it has none (the server lacks them) and
+        :class:`OpenAIProtocolError` naming the field when they are not what the API allows (a
+        log-probability that is not a finite number, a token that is not a string)."""
+        url = f"{self.cfg.base_url}/completions"
+        field = "choices[0].logprobs"
+        try:
+            lp = r.choices[0].logprobs
+            if lp is None or not lp.token_logprobs or lp.text_offset is None:
+                raise OpenAIUnavailable(f"{url} returned no prompt log-probabilities (echo=true, logprobs=1)")
+            field = "usage.prompt_tokens"
+            n_prompt = int(getattr(r.usage, "prompt_tokens", 0) or 0) or len(lp.tokens)
+            field = "choices[0].logprobs.tokens"
+            tokens, offsets, values = (list(lp.tokens[:n_prompt]), list(lp.text_offset[:n_prompt]),
+                                       list(lp.token_logprobs[:n_prompt]))
+        except (AttributeError, IndexError, TypeError, ValueError) as e:
+            raise self._bad_logprobs(url, f"{field} cannot be read ({type(e).__name__}: "
+                                          f"{self._quote(e, 120)})") from None
+        for name, items, ok, want in (
+                ("tokens", tokens, lambda x: isinstance(x, str), "a string"),
+                ("text_offset", offsets, lambda x: isinstance(x, int) and not isinstance(x, bool), "an integer"),
+                ("token_logprobs", values, lambda x: x is None or _finite(x), "a finite number")):
+            for i, x in enumerate(items):
+                if not ok(x):
+                    raise self._bad_logprobs(url, f"choices[0].logprobs.{name}[{i}] is {self._quote(repr(x), 40)} "
+                                                  f"({type(x).__name__}), not {want}")
+        return tokens, offsets, [None if v is None else float(v) for v in values], n_prompt
+
+    def _bad_logprobs(self, url: str, problem: str) -> OpenAIProtocolError:
+        return OpenAIProtocolError(
+            f"the server answered {url} (llm.base_url) with log-probabilities the OpenAI API does not allow: "
+            f"{problem} (nothing was cached). The server or its model is broken: "
+            f"check it (its log, its version), or use llm.proposal_mode=generate llm.cost_inference_mode="
+            f"generate, which need no log-probabilities")
 
     def score(self, prompt: str, continuations: Sequence[str], calibration_prompt: Optional[str] = None) -> Scores:
         if not continuations:
@@ -296,3 +412,8 @@ class OpenAIBackend:
 
 def _valid(text: str, schema: dict) -> bool:
     return check_answer(text, schema)[1] is None
+
+
+def _finite(x: Any) -> bool:
+    """A real number (not a bool, not a string) that is finite."""
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)

@@ -26,7 +26,7 @@ def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> No
         (out_dir / PROBE_FILE).unlink(missing_ok=True)  # an earlier run's server is not this run's
     call_log = out_dir / "llm_calls.jsonl"
     call_log.unlink(missing_ok=True)  # what an earlier (killed) run left here
-    client = stage_client(cfg, call_log, "candidates")
+    client = stage_client(cfg, call_log, "candidates", probe=probe)
     try:
         loaded = {sid: load_scene_and_missions(scenes_dir, sid, cfg) for sid in scene_ids(scenes_dir)}
         jobs = [(sid, m) for sid, (_, missions) in loaded.items() for m in missions]

@@ -42,5 +42,7 @@ def load_grids(scenes_dir: Path, sid: str, cfg: ExperimentConfig) -> dict[str, O
         raise MissingInputError(f"{path}: {e}") from None
 
 
-def stage_client(cfg: ExperimentConfig, call_log: Path | None, stage: str) -> LLMClient:
-    return make_client(cfg.llm, call_log_path=call_log).with_context(stage=stage)
+def stage_client(cfg: ExperimentConfig, call_log: Path | None, stage: str,
+                 probe: dict | None = None) -> LLMClient:
+    """probe: the stage's recorded LLM conformance probe (PROBE_FILE), used instead of probing again."""
+    return make_client(cfg.llm, call_log_path=call_log, probe=probe).with_context(stage=stage)

@@ -46,7 +46,7 @@ class MissionWorker:
                  prov: dict, call_log: Path) -> None:
         self.cfg, self.scenes_dir, self.candidates_dir, self.out_dir, self.prov = (
             cfg, Path(scenes_dir), Path(candidates_dir), Path(out_dir), for_run_log(prov))
-        self.client = stage_client(cfg, call_log, "missions")
+        self.client = stage_client(cfg, call_log, "missions", probe=prov.get("llm_probe"))
         self.robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
         self.gammas = Gammas.from_config(cfg)
         self._scenes: dict[str, tuple] = {}

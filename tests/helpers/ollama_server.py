@@ -9,7 +9,9 @@ in ``requests`` for assertions. No wall clock enters a response (created_at is f
 ``fault`` makes /api/chat misbehave the way broken servers do: ``"garbage"`` answers every chat
 with the content ``I think {banana``; ``"invalid_json"`` sends a body that is not JSON;
 ``"http_500"`` an internal server error; ``"trickle"`` sends the headers, then one byte every
-0.2 s (for at most ``trickle_s`` seconds), so no single read times out.
+0.2 s (for at most ``trickle_s`` seconds), so no single read times out; ``"status"``: the first
+``fault_n`` chats (all when None) answer HTTP ``status`` with ``Retry-After: <retry_after>`` when set.
+``times`` holds each chat request's time.monotonic().
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import hashlib
 import json
 import random
 import threading
+import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any, Optional
 
@@ -33,12 +36,16 @@ class FakeOllama:
 
     def __init__(self, models: tuple[str, ...] = ("fixture-model:latest",),
                  answer_backend: Optional[Any] = None, fault: Optional[str] = None,
-                 trickle_s: float = 20.0) -> None:
-        assert fault in (None, "garbage", "invalid_json", "http_500", "trickle"), fault
+                 trickle_s: float = 20.0, *, status: int = 503, fault_n: Optional[int] = None,
+                 retry_after: Optional[str] = None) -> None:
+        assert fault in (None, "garbage", "invalid_json", "http_500", "trickle", "status"), fault
         self.models = {m: hashlib.sha256(m.encode()).hexdigest() for m in models}
         self.answer_backend = answer_backend
         self.fault = fault
         self.trickle_s = trickle_s
+        self.status, self.fault_n, self.retry_after = status, fault_n, retry_after
+        self.faults_sent = 0
+        self.times: list[float] = []
         self.requests: list[tuple[str, str, Any]] = []
         self._server: Optional[ThreadingHTTPServer] = None
         self._thread: Optional[threading.Thread] = None
@@ -77,17 +84,17 @@ class FakeOllama:
             def log_message(self, *a):  # keep test output quiet
                 pass
 
-            def _send(self, code: int, obj: Any) -> None:
+            def _send(self, code: int, obj: Any, headers: Optional[dict] = None) -> None:
                 data = json.dumps(obj).encode()
                 self.send_response(code)
                 self.send_header("Content-Type", "application/json")
                 self.send_header("Content-Length", str(len(data)))
+                for k, v in (headers or {}).items():
+                    self.send_header(k, v)
                 self.end_headers()
                 self.wfile.write(data)
 
             def _fault(self, fault: str) -> None:
-                import time
-
                 if fault == "garbage":
                     return self._send(200, {"model": "fixture-model:latest", "created_at": FIXED_TIME,
                                             "message": {"role": "assistant", "content": "I think {banana"},
@@ -95,6 +102,9 @@ class FakeOllama:
                                             "eval_count": 4})
                 if fault == "http_500":
                     return self._send(500, {"error": "llama runner process has terminated"})
+                if fault == "status":
+                    return self._send(fake.status, {"error": f"fixture fault: HTTP {fake.status}"},
+                                      {"Retry-After": fake.retry_after} if fake.retry_after is not None else None)
                 if fault == "invalid_json":
                     data = b"<html>502 Bad Gateway</html>"
                     self.send_response(200)
@@ -140,7 +150,13 @@ class FakeOllama:
                     return self._send(200, {"modelfile": "", "parameters": "", "template": "{{ .Prompt }}",
                                             "details": {"format": "gguf", "family": "fixture"},
                                             "model_info": {}, "modified_at": FIXED_TIME})
-                if self.path == "/api/chat" and fake.fault is not None:
+                if self.path == "/api/chat":
+                    fake.times.append(time.monotonic())
+                if self.path == "/api/chat" and fake.fault == "status" and (
+                        fake.fault_n is None or fake.faults_sent < fake.fault_n):
+                    fake.faults_sent += 1
+                    return self._fault("status")
+                if self.path == "/api/chat" and fake.fault not in (None, "status"):
                     return self._fault(fake.fault)
                 if self.path == "/api/chat":
                     text, tin, tout = fake._answer(body)

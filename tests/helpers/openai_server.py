@@ -8,7 +8,12 @@ deterministic log-probabilities. ``fault``: ``"429_once"`` (the first chat reque
 (chat answers are not JSON whatever the schema), ``"no_logprobs"`` (completions without
 log-probabilities, like OpenAI's chat models), ``"not_json_models"`` / ``"not_json_chat"`` (``/v1/models``
 / ``/v1/chat/completions`` answer 200 with an HTML page sent as ``content_type``, like a proxy or a web
-server at the wrong URL).
+server at the wrong URL), ``"status"`` (the first ``fault_n`` requests to ``/v1<fault_path>``, all of them
+when ``fault_n`` is None, answer HTTP ``status``, with a ``Retry-After: <retry_after>`` header when it is
+set), ``"bad_logprobs"`` (echoed completions carry ``bad_logprob``, e.g. NaN or "abc", as the
+log-probability of every token after the first), ``"echo_key_400"`` (chat requests answer HTTP 400 with
+a body that echoes the request's Authorization header, as some proxies do). ``times`` holds each
+request's (path, time.monotonic()).
 
 ``llama_server``: llama-cpp-python's own OpenAI-compatible server on the embedded GGUF (real HTTP,
 real grammar-constrained decoding), started in a subprocess and stopped when the test ends.
@@ -57,14 +62,21 @@ def free_port() -> int:
 class FakeOpenAI:
     """Context manager: ``with FakeOpenAI(fault=...) as srv: srv.base_url``."""
 
-    FAULTS = (None, "429_once", "hang", "bad_json", "no_logprobs", "not_json_models", "not_json_chat")
+    FAULTS = (None, "429_once", "hang", "bad_json", "no_logprobs", "not_json_models", "not_json_chat", "status",
+              "bad_logprobs", "echo_key_400")
 
     def __init__(self, fault: Optional[str] = None, hang_s: float = 30.0, fingerprint: str = "fp_fixture",
-                 content_type: str = "application/json") -> None:
+                 content_type: str = "application/json", *, status: int = 500, fault_n: Optional[int] = None,
+                 fault_path: str = "/chat/completions", retry_after: Optional[str] = None,
+                 bad_logprob: Any = float("nan")) -> None:
         assert fault in self.FAULTS, fault
         self.fault, self.hang_s, self.fingerprint = fault, hang_s, fingerprint
         self.content_type = content_type  # of the page the not_json faults send
+        self.status, self.fault_n, self.fault_path, self.retry_after = status, fault_n, fault_path, retry_after
+        self.bad_logprob = bad_logprob
+        self.faults_sent = 0  # answers of the "status" fault
         self.requests: list[tuple[str, Any]] = []
+        self.times: list[tuple[str, float]] = []
         self._429_sent = False
         self._server: Optional[ThreadingHTTPServer] = None
 
@@ -107,8 +119,22 @@ class FakeOpenAI:
                 self.end_headers()
                 self.wfile.write(data)
 
+            def _status_fault(self) -> bool:
+                """Answer the "status" fault if this request is one of those it hits."""
+                hit = fake.fault == "status" and self.path == "/v1" + fake.fault_path and (
+                    fake.fault_n is None or fake.faults_sent < fake.fault_n)
+                if hit:
+                    fake.faults_sent += 1
+                    self._send(fake.status, {"error": {"message": f"fixture fault: HTTP {fake.status}",
+                                                       "type": "server_error"}},
+                               {"Retry-After": fake.retry_after} if fake.retry_after is not None else None)
+                return hit
+
             def do_GET(self):
                 fake.requests.append(("GET " + self.path, None))
+                fake.times.append(("GET " + self.path, time.monotonic()))
+                if self._status_fault():
+                    return None
                 if self.path.endswith("/models") and fake.fault == "not_json_models":
                     return self._send_page()
                 if self.path.endswith("/models"):
@@ -120,6 +146,9 @@ class FakeOpenAI:
                 n = int(self.headers.get("Content-Length", 0))
                 body = json.loads(self.rfile.read(n) or b"{}")
                 fake.requests.append(("POST " + self.path, body))
+                fake.times.append(("POST " + self.path, time.monotonic()))
+                if self._status_fault():
+                    return None
                 if body.get("model") != MODEL:
                     return self._send(404, {"error": {"message": f"model {body.get('model')!r} not found",
                                                       "type": "invalid_request_error", "code": "model_not_found"}})
@@ -133,6 +162,10 @@ class FakeOpenAI:
                         return None
                     if fake.fault == "not_json_chat":
                         return self._send_page()
+                    if fake.fault == "echo_key_400":
+                        return self._send(400, {"error": {"message": "invalid request from client with headers "
+                                                          f"Authorization: {self.headers.get('Authorization')}",
+                                                          "type": "invalid_request_error"}})
                     text = fake._chat_answer(body)
                     return self._send(200, {
                         "id": "chatcmpl-fixture", "object": "chat.completion", "created": 0, "model": MODEL,
@@ -149,7 +182,8 @@ class FakeOpenAI:
                         toks.append(t)
                         offs.append(pos)
                         pos += len(t)
-                    lps = [None] + [-1.0 - llm_sample_seed(t) / 2**31 for t in toks[1:]]
+                    lps = [None] + [fake.bad_logprob if fake.fault == "bad_logprobs" else
+                                    -1.0 - llm_sample_seed(t) / 2**31 for t in toks[1:]]
                     logprobs = None if fake.fault == "no_logprobs" else {
                         "tokens": toks, "text_offset": offs, "token_logprobs": lps, "top_logprobs": None}
                     return self._send(200, {
