@@ -57,11 +57,13 @@ def die_with_stage_runner(sig: int = signal.SIGTERM) -> None:
     stage exits. ``pipeline/stage`` records dvc's pid in ``INTERLLM_STAGE_PARENT`` before it starts
     Python, so a dvc killed while the interpreter was still starting or importing is noticed
     here, not missed (the stage would otherwise run on with no parent). Called by the ``pipeline``
-    package before it imports anything else."""
+    package before it imports anything else. The variable is taken out of the environment, so the
+    stage's own children (the missions workers, which import ``pipeline`` again) die with the stage,
+    not with dvc, whose pid is not their parent's."""
     if not os.environ.get("DVC_STAGE"):
         return
     try:
-        parent = int(os.environ.get(STAGE_PARENT_ENV, ""))
+        parent = int(os.environ.pop(STAGE_PARENT_ENV, ""))
     except ValueError:
         parent = os.getppid()
     die_with_parent(expected_parent=parent, sig=sig)

@@ -254,6 +254,17 @@ def test_3_a_stage_whose_dvc_died_before_it_started_stops_without_writing(tmp_pa
     assert not (tmp_path / "data" / "scenes").exists()
 
 
+def test_3_the_stages_own_children_live_on_under_dvc():
+    """A missions worker imports ``pipeline`` again: it must die with the stage, not mistake dvc's pid
+    (the stage's parent) for its own parent's and stop at once."""
+    code = ("import subprocess, sys\nimport pipeline\n"
+            "r = subprocess.run([sys.executable, '-c', 'import pipeline, time; time.sleep(0.5); print(\"alive\")'], "
+            "capture_output=True, text=True)\nprint(r.stdout.strip() or r.returncode)")
+    env = {**os.environ, "DVC_STAGE": "missions", "INTERLLM_STAGE_PARENT": str(os.getpid())}
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60, env=env)
+    assert r.stdout.strip() == "alive", (r.stdout, r.stderr)
+
+
 # -- 6. output folders that are links ---------------------------------------------------------------------
 def test_6_a_symlinked_output_folder_stops_the_stage_and_the_outside_is_untouched(tmp_path, tiny_scene_dict):
     outside, data = tmp_path / "outside", tmp_path / "data"
