@@ -13,7 +13,10 @@ a miss: the backend is asked again and its new outcome replaces the failure, so 
 readwrite run gets the new answer). A failure is stored like an answer so that a replay and every
 process meet the same outcome; after the model or server has been fixed, one run with
 ``llm.cache_mode=retry_failures`` asks again for exactly the failed requests (the failure-share
-stop advises it when failures came from the cache). ``off`` changes no entry.
+stop advises it when failures came from the cache). ``off`` changes no entry. Within one
+``retry_failures`` run, a request that fails again in one stage and succeeds when a later stage or
+worker asks it again ends with the success stored, while the earlier stage used the failure: that
+run replays exactly only after one more run (readwrite) that meets the stored outcome everywhere.
 
 Writes are atomic (temp file in the same folder + ``os.replace``), so several processes writing
 at once lose nothing. A corrupt entry (bad JSON, checksum mismatch, or a response whose layout is
