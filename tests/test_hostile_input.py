@@ -245,8 +245,14 @@ def test_3_a_stage_whose_dvc_died_before_it_started_stops_without_writing(tmp_pa
     r = subprocess.run([sys.executable, "-c", ORPHAN, str(params)], cwd=ROOT, capture_output=True, text=True,
                        timeout=60)
     pid = int(r.stdout.strip())
+    def running() -> bool:
+        try:
+            return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+        except psutil.NoSuchProcess:
+            return False
+
     deadline = time.monotonic() + 30
-    while psutil.pid_exists(pid) and psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+    while running():
         if time.monotonic() > deadline:
             os.kill(pid, signal.SIGKILL)
             pytest.fail("the orphaned stage was still running 30 s after its parent died")
