@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from interllm.config import ExperimentConfig
-from interllm.io import check_name, child_path, ensure_dir, write_json
+from interllm.io import child_path, ensure_dir, write_json
 from interllm.llm.backend import preflight
 from interllm.llm.health import check_failure_share
 from interllm.planners.candidates import generate_initial_candidates
@@ -36,6 +36,6 @@ def run_candidates(cfg: ExperimentConfig, scenes_dir: Path, out_dir: Path) -> No
                 loaded[sid][0], mission, client.with_context(scene=sid, mission=mission.id), cfg)
         check_failure_share(call_log, cfg.llm, "candidates stage")  # before any candidates are written
         for sid, cands in by_scene.items():
-            write_json(child_path(out_dir, check_name(sid, "the scene id") + ".json"), cands)
+            write_json(child_path(out_dir, f"{sid}.json", what="the scene id's file name"), cands)
     finally:
         client.close()
