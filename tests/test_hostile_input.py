@@ -227,11 +227,17 @@ def test_2_pipeline_run_into_a_folder_another_run_holds_exits_2(tmp_path):
 
 # -- 3. a stage whose dvc died before the stage was up ------------------------------------------------
 ORPHAN = textwrap.dedent("""
-    import os, subprocess, sys
+    import os, subprocess, sys, time
     child = subprocess.Popen(["sh", "pipeline/stage", "scenes", "--params", sys.argv[1]],
                              env={**os.environ, "DVC_STAGE": "scenes", "INTERLLM_PROGRESS": "0"})
     print(child.pid, flush=True)
-    os._exit(0)  # dvc killed: the stage has not even started Python yet
+    # wait until the stage script has read its parent's pid and exec'd Python (a shell cannot learn
+    # the pid of a parent that died before the shell itself started), then die: the stage's Python
+    # is still starting up, nothing of the stage has run yet
+    deadline = time.monotonic() + 30
+    while "pipeline.scenes" not in open(f"/proc/{child.pid}/cmdline").read() and time.monotonic() < deadline:
+        time.sleep(0.001)
+    os._exit(0)  # dvc killed
 """)
 
 
