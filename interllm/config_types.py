@@ -45,3 +45,14 @@ def coerce(value, tp: str, key: str, source: str):
         hint = f"; {value} is not a whole number"
     raise ConfigError(f"config key '{key}'{where} must be {type_name(base)}"
                       f"{' or null' if optional else ''}, got {value!r} ({type(value).__name__}){hint}")
+
+
+def check(cond: bool, key: str, msg: str) -> None:
+    """Raise ConfigError naming ``key`` with ``msg`` unless ``cond``."""
+    if not cond:
+        raise ConfigError(f"config key '{key}': {msg}")
+
+
+def choice(value: str, key: str, valid: tuple[str, ...]) -> None:
+    """Raise ConfigError naming ``key`` and the valid choices unless ``value`` is one of ``valid``."""
+    check(value in valid, key, f"{value!r} is not valid; choose one of {list(valid)}")
