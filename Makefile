@@ -53,9 +53,13 @@ $(LLAMA_STAMP): $(LLAMA_WHEELS)/.built | $(PY)
 	touch $@
 
 # Everything else. --only-binary keeps pip from building llama-cpp-python again from source.
+# The Stretch robot's URDF and meshes (sim/robot=stretch) come from a data-only package installed
+# without its dependencies: its URDF loader (urchin, with pyglet and trimesh) is not needed, since
+# interllm/sim/urdf_chain.py reads the file itself.
 $(VENV)/.installed: pyproject.toml requirements.lock $(LLAMA_STAMP)
 	$(PY) -m pip install --quiet $(CONSTRAINTS) --only-binary llama-cpp-python \
 	  --find-links $(LLAMA_WHEELS) -e '.[dev]'
+	$(PY) -m pip install --quiet --no-deps $(CONSTRAINTS) hello-robot-stretch-urdf
 	touch $@
 
 # Reinstall the llama.cpp build this Makefile's settings choose (the fix that a model-load check

@@ -6,6 +6,7 @@
     interllm scene generate --size paper --seed 0 --out my_scene/
     interllm scene validate my_house.json
     interllm scene import-procthor house.json --out my_scene/ [--strict]
+    interllm scene reach my_scene/scene.json [sim/robot=stretch ...] [--json OUT]   # what the robot can pick up
     interllm report --sweeps multirun/                   # report + ablation tables of multiruns
     interllm cache stats [--dir data/llm_cache]
     interllm cache prune --keep 'data/**/llm_calls.jsonl' [--delete]   # drop entries no run used
@@ -87,6 +88,27 @@ def _scene_import(args) -> int:
     print("\n".join(["import report:"] + [f"  {ln}" for ln in lines]))
     print(f"wrote {out / 'scene.json'}, {out / 'import_report.txt'} and {out / 'topdown.png'}; use it with "
           f"scene.import_path={out / 'scene.json'}")
+    return 0
+
+
+def _scene_reach(args) -> int:
+    from interllm.config import ConfigError, from_dict  # lazy: a command loads only its own code
+    from interllm.io import atomic_write_text  # lazy: a command loads only its own code
+    from interllm.overrides import compose_config  # lazy: a command loads only its own code
+    from interllm.scene import load_scene_file  # lazy: a command loads only its own code
+    from interllm.scene.validate import SceneValidationError  # lazy: a command loads only its own code
+    from interllm.sim.reach_report import reach_report, report_json, report_lines  # lazy: own code only
+
+    try:
+        cfg = from_dict(compose_config(args.overrides), source="conf/ and the command line")
+        scene = load_scene_file(args.file, robot_radius=cfg.sim.robot_radius, check_reachability=False)
+    except (ConfigError, SceneValidationError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    rows = reach_report(scene, cfg.sim, cfg.scene.grid_resolution)
+    print("\n".join(report_lines(rows, cfg.sim.robot)))
+    if args.json:
+        atomic_write_text(Path(args.json), json.dumps(report_json(rows, cfg.sim.robot), indent=1) + "\n")
     return 0
 
 
@@ -276,6 +298,10 @@ def _main(argv: list[str] | None = None) -> int:
     im.add_argument("--strict", action="store_true",
                     help="reject a child far off its parent and unreachable furniture (for authors of their "
                          "own houses) instead of repairing them")
+    rc = sc.add_parser("reach", help="the objects the robot can pick up, per furniture category, and why not")
+    rc.add_argument("file")
+    rc.add_argument("overrides", nargs="*", help="Hydra overrides as for pipeline.run, e.g. sim/robot=stretch")
+    rc.add_argument("--json", help="also write the report as JSON to this file")
     rp = sub.add_parser("report", help="the report, with the ablation results of Hydra multiruns")
     rp.add_argument("--data", default="data", help="folder with metrics/, scenes/, runs/")
     rp.add_argument("--params", default="params.yaml")
@@ -311,7 +337,7 @@ def _main(argv: list[str] | None = None) -> int:
             print(json.dumps(scene_json_schema(), indent=2))
             return 0
         return {"generate": _scene_generate, "validate": _scene_validate,
-                "import-procthor": _scene_import}[args.scmd](args)
+                "import-procthor": _scene_import, "reach": _scene_reach}[args.scmd](args)
     if args.cmd == "cache":
         return _cache_prune(args) if args.ccmd == "prune" else _cache_stats(args)
     if args.cmd == "report":

@@ -66,3 +66,20 @@ def apply_overrides(raw: dict, overrides: list[str]) -> str:
         if key != "llm":
             set_dotted(raw, key, value)
     return note
+
+
+def compose_config(overrides: list[str]) -> dict:
+    """The experiment config that ``python -m pipeline.run <overrides>`` composes from conf/ (Hydra
+    overrides: ``sim/robot=stretch``, ``sim.n_l=10``), as a plain dict."""
+    from hydra import compose, initialize_config_dir  # lazy: only the commands that compose load hydra
+    from hydra.errors import HydraException  # lazy: with hydra
+    from omegaconf import OmegaConf  # lazy: with hydra
+
+    try:
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            cfg = compose(config_name="config", overrides=list(overrides))
+    except HydraException as e:
+        raise ConfigError(f"overrides {list(overrides)}: {e}") from e
+    out = OmegaConf.to_container(cfg, resolve=True)
+    out.pop("hydra", None)
+    return out

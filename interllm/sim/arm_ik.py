@@ -22,7 +22,7 @@ import numpy as np
 from interllm.config import SimConfig
 from interllm.scene.graph import SceneGraph
 from interllm.sim.build import build_local_spec, local_furniture
-from interllm.sim.robot import ARM_GEOMS, ARM_JOINTS, GRIP_SITE, TUCK
+from interllm.sim.robot import GRIP_SITE, RobotParts, robot_parts
 
 ROT_TOL = 0.1  # [rad] orientation tolerance of IK convergence
 IK_NEIGHBOURHOOD = 1.6  # [m] reach protocol: what the arm could touch (pose_reach 0.8 + arm reach 0.76, rounded)
@@ -36,6 +36,7 @@ class LocalIK:
 
     model: mujoco.MjModel
     configuration: mink.Configuration
+    parts: RobotParts
     base_body: int
     grip_site: int
     arm_geoms: list[int]
@@ -66,8 +67,12 @@ class LocalIK:
 
 
 def ik_neighbourhood(cfg: SimConfig) -> float:
-    """[m] how far around the furniture the IK model reaches (0: the furniture alone)."""
-    return IK_NEIGHBOURHOOD if cfg.pose_protocol == "reach" else 0.0
+    """[m] how far around the furniture the IK model reaches (0: the furniture alone): base poses
+    up to ``sim.pose_reach`` away plus the arm's reach."""
+    if cfg.pose_protocol != "reach":
+        return 0.0
+    reach = robot_parts(cfg.robot).reach
+    return IK_NEIGHBOURHOOD if reach is None else round(cfg.pose_reach + reach.radius + 0.05, 1)
 
 
 def layout_key(scene: SceneGraph, furniture_id: str, exclude: tuple[str, ...], neighbourhood: float) -> tuple:
@@ -84,22 +89,26 @@ def build_local_ik(scene: SceneGraph, furniture_id: str, cfg: SimConfig, exclude
     objects; in the reach protocol also what stands around it)."""
     spec = build_local_spec(scene, furniture_id, cfg, exclude_objects=exclude, neighbourhood=ik_neighbourhood(cfg))
     model = spec.compile()
+    parts = robot_parts(cfg.robot)
     names = {g: (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "") for g in range(model.ngeom)}
     ik = LocalIK(
-        model=model, configuration=mink.Configuration(model), base_body=model.body("robot/base").id,
-        grip_site=model.site(GRIP_SITE).id, arm_geoms=[model.geom(n).id for n in ARM_GEOMS],
+        model=model, configuration=mink.Configuration(model), parts=parts, base_body=model.body("robot/base").id,
+        grip_site=model.site(GRIP_SITE).id, arm_geoms=[model.geom(n).id for n in parts.arm_geoms],
         robot_geoms={g for g, n in names.items() if n.startswith("robot/")},
         furniture_geoms=[g for g, n in names.items() if n.startswith("furniture/")],
         object_geoms={n.split("/", 1)[1]: g for g, n in names.items() if n.startswith("object/")},
         structure_geoms=[g for g, n in names.items() if n.startswith(("wall/", "door/"))],
         support_geom=model.geom(f"furniture/{furniture_id}").id)
-    assert model.nq == len(ARM_JOINTS), "the local IK model must have only the arm joints"
+    assert model.nq == len(parts.joints), "the local IK model must have only the arm joints"
     return ik
 
 
-def topdown_rotation(base_xy, target_xy) -> np.ndarray:
+def topdown_rotation(base_xy, target_xy, reach_yaw: float | None = None) -> np.ndarray:
     """Gripper frame with its approach axis (x) pointing down and the fingers' axis (y)
-    horizontal, perpendicular to the base->target direction."""
+    horizontal, perpendicular to the base->target direction, or to the world direction
+    ``reach_yaw`` [rad] the arm reaches along (a robot whose arm is off the base's centre)."""
+    if reach_yaw is not None:
+        target_xy = (base_xy[0] + math.cos(reach_yaw), base_xy[1] + math.sin(reach_yaw))
     d = np.array([target_xy[0] - base_xy[0], target_xy[1] - base_xy[1]], dtype=float)
     n = float(np.linalg.norm(d))
     d = d / n if n > 1e-9 else np.array([1.0, 0.0])
@@ -133,7 +142,7 @@ def solve_ik(ik: LocalIK, q0: np.ndarray, target_pos: np.ndarray, target_rot: np
     task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(target_rot),
                                                            np.asarray(target_pos, dtype=float)))
     posture = mink.PostureTask(ik.model, cost=1e-3)
-    posture.set_target(TUCK)
+    posture.set_target(ik.parts.tuck)
     limits = ik.limits(avoid)
     best = math.inf
     since = 0
@@ -209,7 +218,7 @@ def arm_motion_time(cfg: SimConfig, ik: LocalIK, q_from: np.ndarray, q_to: np.nd
     open; within ``sim.arm_slow_distance`` [m] of one of ``obstacles`` the speed falls linearly with
     the clearance, down to ``sim.arm_min_speed`` of ``joint_speed`` at contact (clearance sampled
     every ``ARM_SAMPLE_STEP`` rad of the path)."""
-    length = float(np.linalg.norm(q_to - q_from))
+    length = float(np.linalg.norm(_in_hinge_units(cfg, ik.parts, q_to - q_from)))
     if cfg.arm_slow_distance <= 0 or length == 0.0:
         return length / cfg.joint_speed
     n = max(1, math.ceil(length / ARM_SAMPLE_STEP))
@@ -218,3 +227,11 @@ def arm_motion_time(cfg: SimConfig, ik: LocalIK, q_from: np.ndarray, q_to: np.nd
     for d in _clearances(ik, qs, obstacles, cfg.arm_slow_distance):
         t += (length / n) / (cfg.joint_speed * max(cfg.arm_min_speed, d / cfg.arm_slow_distance))
     return t
+
+
+def _in_hinge_units(cfg: SimConfig, parts: RobotParts, dq: np.ndarray) -> np.ndarray:
+    """A joint-space step with each prismatic joint's travel [m] scaled to the hinge angle [rad]
+    that takes as long (``link_speed`` [m/s] against ``sim.joint_speed`` [rad/s])."""
+    if not any(parts.slide):
+        return dq
+    return np.where(parts.slide, dq * (cfg.joint_speed / parts.link_speed), dq)

@@ -38,7 +38,14 @@ from interllm.scene.geometry import footprint_distance
 from interllm.scene.graph import Furniture
 from interllm.scene.grid import OccupancyGrid, clear_of_obstacles
 from interllm.sim.physics import contact_radius
-from interllm.sim.robot import FOREARM, SHOULDER_FORWARD, SHOULDER_HEIGHT, UPPER_ARM, WRIST_TO_GRIP
+from interllm.sim.robot import (
+    FOREARM,
+    SHOULDER_FORWARD,
+    SHOULDER_HEIGHT,
+    UPPER_ARM,
+    WRIST_TO_GRIP,
+    robot_parts,
+)
 
 POSE_RING = 0.30  # [m] window protocol: poses at most this far beyond robot_radius from the footprint
 LOCAL_WINDOW = 0.15  # [m] window protocol: at most this much farther from the target than the closest
@@ -64,8 +71,21 @@ class BasePose:
         return (self.x, self.y, self.yaw)
 
 
-def _facing(x: float, y: float, target_xy, drive: float = 0.0, free: bool = True) -> BasePose:
-    return BasePose(x, y, math.atan2(target_xy[1] - y, target_xy[0] - x), drive, free)
+def _facing(x: float, y: float, target_xy, drive: float = 0.0, free: bool = True, cfg: SimConfig | None = None
+            ) -> BasePose:
+    return BasePose(x, y, facing_yaw(cfg, (x, y), target_xy), drive, free)
+
+
+def facing_yaw(cfg: SimConfig | None, base_xy, target_xy) -> float:
+    """[rad] the base yaw that turns the arm to the target: the generic robot faces it; a
+    described robot puts it on its arm's line (heading and lateral offset of ``robot.Reach``)."""
+    theta = math.atan2(target_xy[1] - base_xy[1], target_xy[0] - base_xy[0])
+    parts = robot_parts(cfg.robot) if cfg is not None else None
+    if parts is None or parts.reach is None:
+        return theta
+    r = math.hypot(target_xy[0] - base_xy[0], target_xy[1] - base_xy[1])
+    side = math.asin(max(-1.0, min(1.0, parts.reach.lateral / r))) if r > 1e-9 else 0.0
+    return math.remainder(theta - parts.heading - side, math.tau)
 
 
 def sample_base_poses(cfg: SimConfig, presumed: OccupancyGrid, true: OccupancyGrid, furniture: Furniture,
@@ -76,13 +96,23 @@ def sample_base_poses(cfg: SimConfig, presumed: OccupancyGrid, true: OccupancyGr
     if cfg.pose_protocol == "window":
         return window_poses(presumed, furniture, target[:2], action, n, cfg)
     return reach_poses(presumed, true, target[:2], robot_xy, action=action, n=n, cfg=cfg,
-                       radius=pose_radius(cfg, float(target[2])))
+                       radius=pose_radius(cfg, float(target[2])), min_radius=min_pose_radius(cfg))
 
 
-def arm_reach(target_z: float) -> float:
+def arm_reach(target_z: float, cfg: SimConfig | None = None) -> float:
     """[m] the farthest horizontal base-to-target distance from which the top-down pre-grasp of a
-    target at height ``target_z`` [m] is within the arm's two links: the wrist, WRIST_TO_GRIP plus
-    the pre-grasp height above the target, against UPPER_ARM + FOREARM from the shoulder."""
+    target at height ``target_z`` [m] is reachable. Generic robot: within the arm's two links (the
+    wrist, WRIST_TO_GRIP plus the pre-grasp height above the target, against UPPER_ARM + FOREARM from
+    the shoulder). A described robot: its full extension where its lift brings the pre-grasp
+    height within reach (``robot.Reach``); beyond that, an arm that tilts reaches
+    sqrt(radius² − dz²), one that does not, 0."""
+    reach = robot_parts(cfg.robot).reach if cfg is not None else None
+    if reach is not None:
+        z = target_z + PRE_GRASP_HEIGHT
+        dz = max(reach.z_low - z, z - reach.z_high, 0.0)
+        if not reach.tilts:
+            return reach.radius if dz == 0.0 else 0.0
+        return math.sqrt(max(reach.radius ** 2 - dz ** 2, 0.0))
     dz = target_z + PRE_GRASP_HEIGHT + WRIST_TO_GRIP - SHOULDER_HEIGHT
     links = UPPER_ARM + FOREARM
     return math.sqrt(max(links ** 2 - dz ** 2, 0.0)) + SHOULDER_FORWARD
@@ -92,7 +122,16 @@ def pose_radius(cfg: SimConfig, target_z: float) -> float:
     """[m] reach protocol: base centres this close to the target are candidates — the arm's reach at
     the target's height plus ``sim.pose_margin`` (poses a little beyond it: trials that may fail),
     at most ``sim.pose_reach``."""
-    return min(arm_reach(target_z) + cfg.pose_margin, cfg.pose_reach)
+    return min(arm_reach(target_z, cfg) + cfg.pose_margin, cfg.pose_reach)
+
+
+def min_pose_radius(cfg: SimConfig) -> float:
+    """[m] reach protocol: base centres closer to the target than this are no candidates — a
+    described robot's grasp centre with the arm retracted, less ``sim.pose_margin`` (0: generic)."""
+    reach = robot_parts(cfg.robot).reach
+    if reach is None:
+        return 0.0
+    return max(0.0, reach.radius_min - cfg.pose_margin)
 
 
 def window_poses(grid: OccupancyGrid, furniture: Furniture, target_xy, action: Action, n: int,
@@ -114,7 +153,7 @@ def window_poses(grid: OccupancyGrid, furniture: Furniture, target_xy, action: A
     pts = pts[dt <= dt.min() + LOCAL_WINDOW + 1e-9]
     rng = np.random.default_rng(pose_sampling_seed(cfg.seed, action))
     idx = rng.choice(len(pts), size=n, replace=len(pts) < n)
-    return [_facing(float(pts[k, 0]), float(pts[k, 1]), target_xy) for k in idx]
+    return [_facing(float(pts[k, 0]), float(pts[k, 1]), target_xy, cfg=cfg) for k in idx]
 
 
 def _cell_window(grid: OccupancyGrid, box) -> tuple[tuple[int, int], tuple[int, int]]:
@@ -126,7 +165,7 @@ def _cell_window(grid: OccupancyGrid, box) -> tuple[tuple[int, int], tuple[int, 
 
 
 def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_xy, *, action: Action, n: int,
-                cfg: SimConfig, radius: float) -> list[BasePose]:
+                cfg: SimConfig, radius: float, min_radius: float = 0.0) -> list[BasePose]:
     """The reach protocol (module doc) on the robot's map ``presumed`` and the ``true`` grid, from
     the robot at ``robot_xy`` [m], with base centres at most ``radius`` [m] from ``target_xy``;
     always ``n`` poses, the unfilled ones with ``free`` False."""
@@ -142,18 +181,20 @@ def reach_poses(presumed: OccupancyGrid, true: OccupancyGrid, target_xy, robot_x
     graph = grid_csr(~free, presumed.resolution)
     start = _nearest_free(presumed, free, (r0, c0), (rx, ry))
     if start is None:
-        return [_facing(rx, ry, target_xy, free=False) for _ in range(n)]
+        return [_facing(rx, ry, target_xy, free=False, cfg=cfg) for _ in range(n)]
     dist = dijkstra(graph, directed=False, indices=start[0] * cols + start[1])
     rr, cc = np.mgrid[r0:r1, c0:c1]
     centres = presumed.cell_to_world(np.stack([rr, cc], -1))
-    ok = (standable & np.isfinite(dist.reshape(rows, cols))
-          & (np.hypot(centres[..., 0] - tx, centres[..., 1] - ty) <= radius + 1e-9))
+    far = np.hypot(centres[..., 0] - tx, centres[..., 1] - ty)
+    ok = standable & np.isfinite(dist.reshape(rows, cols)) & (far <= radius + 1e-9)
+    if min_radius > 0:
+        ok &= far >= min_radius
     cand = np.argwhere(ok)  # local (row, col), row-major: a stable order for the seeded draw
     rng = np.random.default_rng(pose_sampling_seed(cfg.seed, action))
     pick = cand[np.sort(rng.choice(len(cand), size=min(n, len(cand)), replace=False))] if len(cand) else cand
     tour = _nearest_neighbour_tour(graph, cols, start, pick)
-    out = [_facing(float(centres[r, c, 0]), float(centres[r, c, 1]), target_xy, drive=d) for (r, c), d in tour]
-    return out + [_facing(rx, ry, target_xy, free=False) for _ in range(n - len(out))]
+    out = [_facing(float(centres[r, c, 0]), float(centres[r, c, 1]), target_xy, drive=d, cfg=cfg) for (r, c), d in tour]
+    return out + [_facing(rx, ry, target_xy, free=False, cfg=cfg) for _ in range(n - len(out))]
 
 
 def _nearest_free(grid: OccupancyGrid, free: np.ndarray, offset, xy) -> tuple[int, int] | None:

@@ -26,10 +26,16 @@ import numpy as np
 
 from interllm.config import SimConfig
 from interllm.core.frames import BASE_FRAME, GRIP_FRAME, wxyz_to_xyzw
-from interllm.sim.robot import ARM_JOINTS, GRIP_SITE, PREFIX, add_robot, add_robot_assets
+from interllm.sim.robot import GRIP_SITE, PREFIX, add_robot, add_robot_assets, robot_parts
 
 _GEOM_KIND = {int(mujoco.mjtGeom.mjGEOM_BOX): "box", int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
               int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule", int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere"}
+
+
+def _rotate_xyzw(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Vector ``v`` [3] rotated by the unit quaternion ``q`` (x, y, z, w)."""
+    u, w = np.asarray(q[:3], dtype=float), float(q[3])
+    return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
 
 
 def frame_name(body_name: str) -> str:
@@ -73,11 +79,11 @@ class RobotKinematics:
         add_robot_assets(spec)
         add_robot(spec.worldbody, sim_cfg or SimConfig(), mobile=False)
         self.model = m = spec.compile()
-        self.joint_names = ARM_JOINTS
-        qadr = {n: int(m.jnt_qposadr[m.joint(n).id]) for n in ARM_JOINTS}
+        self.joint_names = names = robot_parts((sim_cfg or SimConfig()).robot).joints
+        qadr = {n: int(m.jnt_qposadr[m.joint(n).id]) for n in names}
         base_id = m.body(PREFIX + "base").id
         self.chain: list[tuple[str, str]] = []
-        pos, quat, axis, col = [], [], [], []
+        pos, quat, axis, col, slide = [], [], [], [], []
         for b in range(base_id + 1, m.nbody):  # bodies are numbered in tree order
             parent = int(m.body_parentid[b])
             self.chain.append((frame_name(m.body(parent).name), frame_name(m.body(b).name)))
@@ -89,43 +95,52 @@ class RobotKinematics:
                                  "per link")
             if nj == 1:
                 j = int(m.body_jntadr[b])
-                if (m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE or np.any(m.jnt_pos[j] != 0)
-                        or m.qpos0[m.jnt_qposadr[j]] != 0):
+                kind = int(m.jnt_type[j])
+                if (kind not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+                        or np.any(m.jnt_pos[j] != 0) or m.qpos0[m.jnt_qposadr[j]] != 0):
                     raise ValueError(f"joint {m.joint(j).name}: RobotKinematics needs hinges through the "
-                                     "body origin (jnt_pos = 0) with reference angle 0 (ref = 0)")
+                                     "body origin (jnt_pos = 0) or slides, with reference 0 (ref = 0)")
                 axis.append(m.jnt_axis[j].copy())
-                col.append(ARM_JOINTS.index(m.joint(j).name) if m.joint(j).name in qadr else -1)
+                slide.append(kind == int(mujoco.mjtJoint.mjJNT_SLIDE))
+                col.append(names.index(m.joint(j).name) if m.joint(j).name in qadr else -1)
             else:
                 axis.append(np.zeros(3))
+                slide.append(False)
                 col.append(-1)
         site = m.site(GRIP_SITE)
         self.chain.append((frame_name(m.body(int(m.site_bodyid[site.id])).name), GRIP_FRAME))
         pos.append(m.site_pos[site.id].copy())
         quat.append(wxyz_to_xyzw(m.site_quat[site.id]))
         axis.append(np.zeros(3))
+        slide.append(False)
         col.append(-1)
         self._pos = np.asarray(pos, dtype=float)  # [L, 3]
         self._quat = np.asarray(quat, dtype=float)  # [L, 4] xyzw
         self._axis = np.asarray(axis, dtype=float)  # [L, 3]
         self._col = np.asarray(col, dtype=int)  # [L] joint column or -1 (fixed)
+        self._slide = np.asarray(slide, dtype=bool)  # [L] the link's joint is prismatic
+        # a slide moves its body along its axis, which is given in the body frame: in the parent frame
+        self._slide_dir = np.array([_rotate_xyzw(qt, ax) for qt, ax in zip(self._quat, self._axis, strict=True)])
         self.frames = tuple(c for _, c in self.chain)
         self._base_id = base_id
 
     def link_poses(self, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Relative link poses for joint samples [N, 6] (or one sample [6]) [rad].
+        """Relative link poses for joint samples [N, J] (or one sample [J]) [rad] or [m] (slides).
 
         Returns (translations [N, L, 3] [m], quaternions [N, L, 4] xyzw), L = len(chain), each the
         pose of ``chain[l][1]`` in ``chain[l][0]``.
         """
         q = np.asarray(joints, dtype=float)
         one = q.ndim == 1
-        q = q.reshape(-1, len(ARM_JOINTS))
+        q = q.reshape(-1, len(self.joint_names))
         n, nl = len(q), len(self.chain)
-        ang = np.where(self._col >= 0, q[:, np.clip(self._col, 0, None)], 0.0)  # [N, L]
-        half = ang / 2.0
+        val = np.where(self._col >= 0, q[:, np.clip(self._col, 0, None)], 0.0)  # [N, L]
+        half = np.where(self._slide, 0.0, val) / 2.0
         rot = np.concatenate([self._axis[None] * np.sin(half)[..., None], np.cos(half)[..., None]], axis=-1)
         quat = quat_mul_xyzw(np.broadcast_to(self._quat, (n, nl, 4)), rot)
         trans = np.broadcast_to(self._pos, (n, nl, 3)).copy()
+        if self._slide.any():
+            trans += self._slide_dir[None] * np.where(self._slide, val, 0.0)[..., None]
         return (trans[0], quat[0]) if one else (trans, quat)
 
     def visuals(self) -> list[LinkVisual]:

@@ -56,7 +56,6 @@ from interllm.sim.base_poses import sample_base_poses
 from interllm.sim.belief import BeliefMap
 from interllm.sim.grasp_goals import Goal, pickup_goal, place_goal, why_the_state_forbids
 from interllm.sim.physics import MujocoWorld
-from interllm.sim.robot import TUCK
 from interllm.sim.trials import precondition_failure, run_trials, trials_result
 
 
@@ -64,12 +63,13 @@ def _execute_motion(physics: MujocoWorld, pose, q_pre, q_grasp, t0: float, durat
     """Play tuck -> pre -> grasp -> (at_grasp) -> pre -> tuck in the world; returns samples
     spread over [t0, t0 + duration]."""
     physics.set_base(*pose)
-    legs = [(TUCK, q_pre), (q_pre, q_grasp), (q_grasp, q_pre), (q_pre, TUCK)]
+    tuck = physics.parts.tuck
+    legs = [(tuck, q_pre), (q_pre, q_grasp), (q_grasp, q_pre), (q_pre, tuck)]
     lens = [float(np.linalg.norm(b - a)) for a, b in legs]
     total = sum(lens) or 1.0
     samples = []
     t = t0
-    physics.set_arm(TUCK)
+    physics.set_arm(tuck)
     samples.append(physics.sample(t))
     for k, ((a, b), ln) in enumerate(zip(legs, lens, strict=False)):
         steps = 6

@@ -17,7 +17,7 @@ from interllm.config import SimConfig
 from interllm.core.results import Trajectory
 from interllm.scene.graph import SceneGraph
 from interllm.sim.build import build_world_spec
-from interllm.sim.robot import ARM_JOINTS, BASE_GEOM, BASE_JOINTS, GRIP_SITE, TUCK
+from interllm.sim.robot import BASE_GEOM, BASE_JOINTS, GRIP_SITE, robot_parts
 
 
 def contact_radius(sim_cfg: SimConfig, resolution: float) -> float:
@@ -36,6 +36,7 @@ class MujocoWorld:
 
     def __init__(self, scene: SceneGraph, sim_cfg: SimConfig, resolution: float) -> None:
         self.spec = build_world_spec(scene, robot=True, sim_cfg=sim_cfg)
+        self.parts = robot_parts(sim_cfg.robot)
         # set before compiling: the broad phase bounds each geom by its compiled size (geom_rbound)
         self.contact_radius = contact_radius(sim_cfg, resolution)
         self.spec.geom(BASE_GEOM).size[0] = self.contact_radius
@@ -43,7 +44,7 @@ class MujocoWorld:
         self.data = mujoco.MjData(self.model)
         m = self.model
         self._base_qadr = np.array([m.jnt_qposadr[m.joint(n).id] for n in BASE_JOINTS])
-        self._arm_qadr = np.array([m.jnt_qposadr[m.joint(n).id] for n in ARM_JOINTS])
+        self._arm_qadr = np.array([m.jnt_qposadr[m.joint(n).id] for n in self.parts.joints])
         self._grip_site = m.site(GRIP_SITE).id
         self.base_geom = m.geom(BASE_GEOM).id
         # The house model is only asked for the base's contacts (base_contacts); objects resting on
@@ -71,7 +72,7 @@ class MujocoWorld:
         self.held = None
         self.held_offset = None
         self.set_base(*base_pose)
-        self._set_arm(TUCK)
+        self._set_arm(self.parts.tuck)
         self.place_objects(scene)
         self.forward()
 
@@ -181,11 +182,11 @@ class MujocoWorld:
         """(time [s], base pose [3], arm q [6]) for a trajectory sample."""
         return t, np.array(self.robot_pose), self.arm_q
 
-    @staticmethod
-    def make_trajectory(samples) -> Trajectory:
+    def make_trajectory(self, samples) -> Trajectory:
+        names = self.parts.joints
         if not samples:
-            return Trajectory.empty(len(ARM_JOINTS), ARM_JOINTS)
+            return Trajectory.empty(len(names), names)
         t = np.array([s[0] for s in samples], dtype=float)
         base = np.array([s[1] for s in samples], dtype=float)
         joints = np.array([s[2] for s in samples], dtype=float)
-        return Trajectory(t=t, base=base, joints=joints, joint_names=ARM_JOINTS)
+        return Trajectory(t=t, base=base, joints=joints, joint_names=names)

@@ -21,7 +21,6 @@ from interllm.core.frames import yaw_quat_wxyz
 from interllm.core.results import ActionResult, ManipulationTrial, man_cost
 from interllm.sim.arm_ik import LocalIK, arm_motion_time, arm_touches, solve_ik, topdown_rotation
 from interllm.sim.base_poses import PRE_GRASP_HEIGHT, BasePose
-from interllm.sim.robot import TUCK
 
 INSIDE_MARGIN = 0.02  # [m] the gripper site may be this far outside the object's box
 
@@ -47,10 +46,12 @@ def run_trial(cfg: SimConfig, ik: LocalIK, bp: BasePose, target: np.ndarray, ins
         return ManipulationTrial(pose, False, 0.0, "no_free_pose", 0.0), None
     ik.model.body_pos[ik.base_body] = (bp.x, bp.y, 0.0)
     ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(bp.yaw)
-    rot = topdown_rotation((bp.x, bp.y), target[:2])
+    reach_yaw = None if ik.parts.reach is None else bp.yaw + ik.parts.heading
+    rot = topdown_rotation((bp.x, bp.y), target[:2], reach_yaw)
     near = [g for g in avoid if g != ik.support_geom]  # what slows the arm: not the surface every grasp ends on
-    s1 = solve_ik(ik, TUCK, target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT]), rot, cfg, avoid)
-    t_arm = arm_motion_time(cfg, ik, TUCK, s1.q, near)
+    tuck = ik.parts.tuck
+    s1 = solve_ik(ik, tuck, target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT]), rot, cfg, avoid)
+    t_arm = arm_motion_time(cfg, ik, tuck, s1.q, near)
     if not s1.converged:
         return ManipulationTrial(pose, False, drive_s + t_arm, s1.reason, round(s1.pos_err, 6)), None
     s2 = solve_ik(ik, s1.q, target, rot, cfg, avoid)
