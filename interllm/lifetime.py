@@ -56,8 +56,10 @@ def die_with_stage_runner(sig: int = signal.SIGTERM) -> None:
     """Under DVC (``DVC_STAGE`` set): receive ``sig`` when the ``dvc`` process that started this
     stage exits. ``pipeline/stage`` records dvc's pid in ``INTERLLM_STAGE_PARENT`` before it starts
     Python, so a dvc killed while the interpreter was still starting or importing is noticed
-    here, not missed (the stage would otherwise run on with no parent). Called by the ``pipeline``
-    package before it imports anything else. The variable is taken out of the environment, so the
+    here, not missed (the stage would otherwise run on with no parent). One window stays open: a
+    dvc that dies between forking the shell and the shell's start-up hands the shell its reaper's
+    pid as ``$PPID``; no shell can learn the pid of a parent already gone. Called by the
+    ``pipeline`` package before it imports anything else. The variable is taken out of the environment, so the
     stage's own children (the missions workers, which import ``pipeline`` again) die with the stage,
     not with dvc, whose pid is not their parent's."""
     if not os.environ.get("DVC_STAGE"):
