@@ -114,10 +114,10 @@ class SceneObject:
     id: str
     category: str  # catalog object category, e.g. "apple"
     furniture: str  # furniture id it rests on
-    position: Vec3  # centre of the object's box [m]; z = surface height + size z / 2
+    position: Vec3  # centre of the object's box [m]; z = surface height + size z / 2 (inside a receptacle: lower)
     size: Vec3  # box extents [m]
     usage: str = ""  # semantic usage text ("for eating breakfast")
-    placement: str = "front"  # "front" | "deep" | "high" | "clutter": how hard it is to reach
+    placement: str = "front"  # "front" | "deep" | "high" | "clutter": how hard it is to reach; "inside": in a closed receptacle
     unreachable: str = ""  # why the robot cannot reach it ("": reachable); kept, left out of missions
 
 

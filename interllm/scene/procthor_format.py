@@ -36,13 +36,18 @@ class ImportReport:
     """What an import defaulted, dropped or moved: {reason: [item, ...]}."""
 
     items: dict[str, list[str]] = field(default_factory=lambda: defaultdict(list))
+    warnings: list[str] = field(default_factory=list)  # what changes the house as a whole, said first
 
     def add(self, reason: str, item: str) -> None:
         self.items[reason].append(item)
 
+    def warn(self, text: str) -> None:
+        self.warnings.append(text)
+
     def lines(self, examples: int = 3) -> list[str]:
-        """One line per reason: ``<count> × <reason> (e.g. a, b, c)``, sorted by reason."""
-        out = []
+        """The warnings (``warning: ...``), then one line per reason: ``<count> × <reason> (e.g. a, b,
+        c)``, sorted by reason."""
+        out = [f"warning: {w}" for w in self.warnings]
         for reason in sorted(self.items):
             got = self.items[reason]
             uniq = list(dict.fromkeys(got))

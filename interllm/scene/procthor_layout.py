@@ -220,6 +220,10 @@ def _walls_from_polygons(rooms: dict[str, Room], door_pairs: set, rep: ImportRep
         why = "no doors in the file either: the rooms are open to each other" if not had_doors else \
             "no door of the file between the two rooms: open"
         rep.add(f"shared edge without a wall ({why})", f"{n_open} segments")
+    if n_open and not had_doors:
+        rep.warn(f"the file has no walls and no doors: the house is open inside ({n_open} shared edges between "
+                 "rooms have no wall), so the robot drives straight between rooms and navigation is easier than "
+                 "in the walled house the file came from; look at topdown.png")
     return _merge_collinear(out)
 
 

@@ -2,7 +2,9 @@
 
 Each of ``objects[i]`` is a furniture (wall-mounted types are left out, with their children); its
 ``children`` are objects on its top surface, moved inside its footprint when their box would stick
-out. Without ``strict`` a child far off its parent is repaired (``interllm.scene.repair``).
+out. Without ``strict`` a child far off its parent is repaired (``interllm.scene.repair``). A child
+below the top of a closed receptacle (``CLOSED_RECEPTACLES``) stays where the file has it, marked
+``placement: "inside"``: the robot does not open doors, so its pickup fails and no mission asks for it.
 """
 
 from __future__ import annotations
@@ -34,6 +36,9 @@ from interllm.scene.validate import SceneValidationError
 DEFAULT_FURNITURE_SIZE = (1.0, 0.6, 0.75)  # [m]
 DEFAULT_OBJECT_SIZE = (0.1, 0.1, 0.1)  # [m]
 CHILD_MARGIN = 0.01  # [m] a child moved onto its parent keeps this far inside the footprint
+# furniture that closes over what it holds: a child below its top is inside it (placement "inside")
+CLOSED_RECEPTACLES = {"fridge", "safe", "box"}
+INSIDE_MARGIN = 0.05  # [m] a child whose box ends this far below its receptacle's top is inside it
 
 
 def convert_objects(d: dict, cv: Conversion, rooms: dict[str, Room]
@@ -154,10 +159,26 @@ def _child(c: dict, f: Furniture, cp: str, cv: Conversion, world: tuple[dict, di
     if math.hypot(nx - ox, ny - oy) > 0.01 and not stray:
         rep.add("object not over its parent's top: moved onto it", craw)
     oid = ids.new(ocat)
+    if _inside(c, f, sz):
+        rep.add("object inside a closed receptacle (fridge, safe, box): kept and marked inside; no mission "
+                "asks for it, since the robot does not open doors", craw)
+        y = float(c["position"].get("y", 0.0))
+        return oid, SceneObject(oid, ocat, f.id, (r4(nx), r4(ny), r4(max(y, sz / 2))), (r4(sx), r4(sy), r4(sz)),
+                                oc.usage if oc else "", "inside",
+                                unreachable=f"inside {f.id}, which is closed: the robot does not open doors")
     high = f.surface_height >= cat.placement.high_min
     obj = SceneObject(oid, ocat, f.id, (r4(nx), r4(ny), r4(f.surface_height + sz / 2)),
                       (r4(sx), r4(sy), r4(sz)), oc.usage if oc else "", "high" if high else "front")
     return oid, obj
+
+
+def _inside(c: dict, f: Furniture, size_z: float) -> bool:
+    """A child of a closed receptacle whose centre lies below the receptacle's top: inside it."""
+    pos = c.get("position")
+    if f.category not in CLOSED_RECEPTACLES or not isinstance(pos, dict):
+        return False
+    y = pos.get("y")
+    return isinstance(y, (int, float)) and float(y) + size_z / 2 < f.surface_height - INSIDE_MARGIN
 
 
 def _box(o: dict, catalog_size, rep: ImportReport, what: str, default) -> tuple[float, float, float]:

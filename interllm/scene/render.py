@@ -18,7 +18,8 @@ from interllm.io import atomic_write_bytes
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid
 
-PLACEMENT_COLORS = {"front": "#2a9d8f", "deep": "#e9c46a", "high": "#9b5de5", "clutter": "#f4a261"}
+LINE_MARKERS = {"x", "+", "1", "2", "3", "4", "|", "_"}  # matplotlib markers drawn as lines: no edge colour
+PLACEMENT_COLORS = {"front": "#2a9d8f", "deep": "#e9c46a", "high": "#9b5de5", "clutter": "#f4a261", "inside": "#6c757d"}
 
 
 def render_topdown(scene: SceneGraph, path_png: str | Path, *, grid: Optional[OccupancyGrid] = None,
@@ -120,6 +121,7 @@ def _draw_paths(ax, paths, markers: Sequence[tuple[float, float, str, str]],
             lines += ax.plot(p[:, 0], p[:, 1], lw=1.0, zorder=8, label=label, alpha=0.85,
                              color=(colors or {}).get(label) if label is not None else None)
     for x, y, marker, color in markers:
-        ax.scatter([x], [y], marker=marker, s=28, c=color, edgecolors="black", linewidths=0.4, zorder=9)
+        edge = {} if marker in LINE_MARKERS else {"edgecolors": "black", "linewidths": 0.4}
+        ax.scatter([x], [y], marker=marker, s=28, c=color, zorder=9, **edge)
     if isinstance(paths, Mapping) and lines:
         ax.legend(handles=lines, fontsize=6, loc="upper right", framealpha=0.9).set_zorder(20)

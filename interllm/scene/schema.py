@@ -14,7 +14,7 @@ _POS = {"type": "number", "exclusiveMinimum": 0}
 _VEC2 = {"type": "array", "items": _NUM, "minItems": 2, "maxItems": 2}
 _VEC3 = {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}
 _SIZE3 = {"type": "array", "items": _POS, "minItems": 3, "maxItems": 3}
-PLACEMENTS = ("front", "deep", "high", "clutter")
+PLACEMENTS = ("front", "deep", "high", "clutter", "inside")
 _WHY = {"type": "string", "description": "why the robot cannot reach it (absent: reachable)"}
 
 

@@ -105,6 +105,8 @@ def pickup_goal(scene: SceneGraph, action: Action) -> Goal | str:
     o = scene.objects[action.obj]
     if o.furniture != action.furniture:
         return f"{action.obj} is on {o.furniture}, not on {action.furniture}"
+    if o.placement == "inside":
+        return f"{action.obj} is inside {o.furniture}, which is closed: the robot does not open doors"
     return _goal_at(scene, action, o.position, (), "no collision-free grasp")
 
 
