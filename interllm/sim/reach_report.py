@@ -6,6 +6,7 @@ N_l trials from the base poses the configured protocol draws, from the furniture
 object is *pickable* when its success rate is above 0. A failed object gets one cause, checked in
 this order:
 
+- ``closed``: it is inside a closed receptacle (a fridge; the robot does not open doors);
 - ``no_floor``: no free floor next to its furniture that joins the house (no anchor cell);
 - ``height``: its grasp height lies outside what the arm reaches top-down at any lift position;
 - ``no_free_pose``: no free base pose within reach (most of its trials found none);
@@ -21,12 +22,13 @@ from dataclasses import dataclass, field
 
 from interllm.config import SimConfig
 from interllm.core.actions import Action
+from interllm.core.results import ActionResult
 from interllm.scene.graph import SceneGraph
 from interllm.sim.base_poses import arm_reach
 from interllm.sim.grasp_goals import pickup_goal
 from interllm.sim.world import World
 
-CAUSES = ("no_floor", "height", "no_free_pose", "ik", "collision", "grip")
+CAUSES = ("closed", "no_floor", "height", "no_free_pose", "ik", "collision", "grip")
 TRIAL_CAUSE = {"no_free_pose": "no_free_pose", "ik_no_convergence": "ik", "ik_infeasible": "ik",
                "collision": "collision", "not_in_gripper": "grip"}
 
@@ -44,23 +46,31 @@ class CategoryReach:
         return self.pickable / self.objects if self.objects else 0.0
 
 
-def object_cause(world: World, scene: SceneGraph, oid: str) -> str:
-    """'' when object ``oid`` is pickable, else its cause (module doc)."""
+def pickup_cause(cfg: SimConfig, scene: SceneGraph, oid: str, res: ActionResult | None) -> str:
+    """'' when the measured pickup ``res`` of object ``oid`` (None: it could not be tried) succeeded
+    at least once, else its cause (module doc)."""
     o = scene.objects[oid]
-    action = Action("pickup", o.furniture, obj=oid)
-    goal = pickup_goal(scene, action)
-    if not isinstance(goal, str) and arm_reach(float(goal.target[2]), world.cfg) <= 0.0:
+    if o.placement == "inside":
+        return "closed"
+    if res is not None and res.success_rate > 0:
+        return ""
+    goal = pickup_goal(scene, Action("pickup", o.furniture, obj=oid))
+    if not isinstance(goal, str) and arm_reach(float(goal.target[2]), cfg) <= 0.0:
         return "height"
-    try:
-        res = world.measure_manipulation(action)
-    except ValueError:
-        return "no_floor"
     if res is None:
         return "no_floor"
-    if res.success_rate > 0:
-        return ""
     votes = Counter(TRIAL_CAUSE.get(t.reason, "ik") for t in res.trials)
     return min(votes, key=lambda c: (-votes[c], CAUSES.index(c))) if votes else "no_free_pose"
+
+
+def object_cause(world: World, scene: SceneGraph, oid: str) -> str:
+    """Measure the pickup of object ``oid`` where it stands and return its cause ('' if pickable)."""
+    o = scene.objects[oid]
+    try:
+        res = world.measure_manipulation(Action("pickup", o.furniture, obj=oid))
+    except ValueError:
+        res = None
+    return pickup_cause(world.cfg, scene, oid, res)
 
 
 def reach_report(scene: SceneGraph, cfg: SimConfig, resolution: float = 0.05) -> dict[str, CategoryReach]:

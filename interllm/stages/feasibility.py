@@ -25,7 +25,7 @@ judged by the simulator's own measurement, and how the missions' slots are fille
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 from interllm.config import SimConfig
@@ -36,10 +36,11 @@ from interllm.scene.graph import Mission, SceneGraph
 from interllm.scene.grid import OccupancyGrid
 from interllm.scene.missions import CommandFill, Fulfillable
 from interllm.sim.grasp_goals import place_spot
+from interllm.sim.reach_report import CAUSES, pickup_cause
 from interllm.sim.world import World
 
-FEASIBILITY_SCHEMA_VERSION = 1
-DIFFICULTY = {"front": "easy", "clutter": "medium", "deep": "hard", "high": "hard"}  # by placement label
+FEASIBILITY_SCHEMA_VERSION = 2  # 2: objects[].cause and reach
+DIFFICULTY = {"front": "easy", "clutter": "medium", "deep": "hard", "high": "hard", "inside": "hard"}  # by placement label
 DIGITS = 6  # rounding of success rates, costs and times in the record
 MAX_PASSED = 2  # capacity: instances passed over (cannot be placed on the empty target) before giving up
 
@@ -47,7 +48,8 @@ MAX_PASSED = 2  # capacity: instances passed over (cannot be placed on the empty
 @dataclass(frozen=True)
 class PickupMeasure:
     """One object's pickup from where it stands: success rate over the N_l trials, cost
-    (γ_man·(1 − sr) + t) and mean trial time t [s]; sr 0 when it cannot be tried."""
+    (γ_man·(1 − sr) + t) and mean trial time t [s]; sr 0 when it cannot be tried; ``cause``: why it
+    cannot be picked up ('' when sr > 0; ``sim.reach_report.CAUSES``)."""
 
     furniture: str
     category: str
@@ -55,6 +57,7 @@ class PickupMeasure:
     sr: float
     cost: float
     time: float
+    cause: str = ""
 
 
 @dataclass(frozen=True)
@@ -80,6 +83,7 @@ class SceneFeasibility:
     k: int
     pickups: dict[str, PickupMeasure]
     commands: dict[str, CommandMeasure]
+    reach: dict[str, dict] = field(default_factory=dict)  # per furniture category (``_reach``)
 
     def fulfillable(self) -> Fulfillable:
         """The plain data the mission draw takes."""
@@ -116,13 +120,14 @@ def measure_scene(scene: SceneGraph, sim_cfg: SimConfig, grid_resolution: float,
         res = _measure(world, Action("pickup", o.furniture, obj=oid))
         pickups[oid] = PickupMeasure(o.furniture, o.category, o.placement, _sr(res),
                                      round(float(res.cost), DIGITS) if res else 0.0,
-                                     round(float(res.time), DIGITS) if res else 0.0)
+                                     round(float(res.time), DIGITS) if res else 0.0,
+                                     pickup_cause(sim_cfg, scene, oid, res))
     commands = {}
     for spec in cat.commands:
         targets = spec.resolve_targets(scene)
         if targets:
             commands[spec.id] = _measure_command(world, spec, targets, pickups, k)
-    return SceneFeasibility(scene.id, int(k), pickups, commands)
+    return SceneFeasibility(scene.id, int(k), pickups, commands, _reach(scene, pickups))
 
 
 def _measure_command(world: World, spec: CommandSpec, targets: tuple[str, ...],
@@ -176,13 +181,16 @@ def feasibility_record(meas: SceneFeasibility, drawn: Sequence[tuple[Mission, Se
     """The ``feasibility.json`` document of a scene:
 
     - ``objects``: object id -> {furniture, category, placement, difficulty (front: easy, clutter:
-      medium, deep / high: hard), pickup_sr, pickup_cost, pickup_time [s]};
+      medium, deep / high / inside: hard), pickup_sr, pickup_cost, pickup_time [s], cause};
     - ``commands``: command id -> {targets, instances (right category, not on a target),
       fulfillable, place_sr {instance: {target: sr}} (pickable instances, targets up to the first
       success), capacity {target: n}, fill (objects it can get on its own, at most k)};
     - ``missions``: [{id, commands: [{id, asked, n_objects, matched, status, instances, fulfillable}]}]
       (``scene.missions.CommandFill``; dropped commands are listed with n_objects 0);
     - ``difficulty``: per difficulty {instances, pickup_ok, fulfillable (for some command)};
+    - ``reach``: per furniture category {objects, pickable (pickup_sr > 0), causes {cause: n}} of
+      the objects that cannot be picked up (``sim.reach_report``: closed, no_floor, height,
+      no_free_pose, ik, collision, grip); each object's own is ``objects[id].cause``;
     - ``totals``: {slots_asked (what the config asks: missions x commands_per_mission x k, so a
       mission short of commands counts as slots that cannot be filled), slots_drawn (Σ asked over
       the commands drawn), slots_fulfillable (Σ matched: slots a planner can deliver), commands
@@ -203,14 +211,29 @@ def feasibility_record(meas: SceneFeasibility, drawn: Sequence[tuple[Mission, Se
         "commands": {c: {"targets": list(m.targets), "instances": list(m.instances),
                          "fulfillable": list(m.fulfillable), "place_sr": m.place_sr, "capacity": m.capacity,
                          "fill": ful.fill(c, meas.k)} for c, m in meas.commands.items()},
-        "missions": missions, "difficulty": _by_difficulty(meas), "totals": totals,
+        "missions": missions, "difficulty": _by_difficulty(meas), "reach": meas.reach, "totals": totals,
     }
 
 
 def _object_entry(p: PickupMeasure) -> dict:
     return {"furniture": p.furniture, "category": p.category, "placement": p.placement,
             "difficulty": DIFFICULTY.get(p.placement, "easy"), "pickup_sr": p.sr, "pickup_cost": p.cost,
-            "pickup_time": p.time}
+            "pickup_time": p.time, "cause": p.cause}
+
+
+def _reach(scene: SceneGraph, pickups: dict[str, PickupMeasure]) -> dict[str, dict]:
+    """Per furniture category (sorted): objects on it, those picked up at least once, and the causes
+    of the others ({cause: count}, in ``CAUSES`` order)."""
+    out: dict[str, dict] = {}
+    for p in pickups.values():
+        row = out.setdefault(scene.furniture[p.furniture].category, {"objects": 0, "pickable": 0, "causes": {}})
+        row["objects"] += 1
+        row["pickable"] += p.sr > 0
+        if p.cause:
+            row["causes"][p.cause] = row["causes"].get(p.cause, 0) + 1
+    for row in out.values():
+        row["causes"] = {c: row["causes"][c] for c in CAUSES if c in row["causes"]}
+    return dict(sorted(out.items()))
 
 
 def _by_difficulty(meas: SceneFeasibility) -> dict[str, dict[str, int]]:

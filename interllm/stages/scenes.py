@@ -1,5 +1,6 @@
 """Stage scenes: scene graphs (generated or imported), occupancy grids, MuJoCo worlds, missions,
-the measured feasibility of the missions' commands and top-down pictures."""
+the measured feasibility of the missions' commands and top-down pictures (objects the robot cannot
+pick up crossed out in red)."""
 
 from __future__ import annotations
 
@@ -20,8 +21,9 @@ from interllm.stages.feasibility import feasibility_record, measure_scene
 
 def make_scene(cfg: ExperimentConfig, index: int) -> SceneGraph:
     """Scene ``index`` of the experiment: the imported house (scene.import_path) or a generated one."""
-    if cfg.scene.import_path:
-        return load_scene_file(cfg.scene.import_path)
+    if cfg.scene.import_path:  # reachability judged for the configured robot, as `scene import-procthor` does
+        return load_scene_file(cfg.scene.import_path, robot_radius=cfg.sim.robot_radius,
+                               resolution=cfg.scene.grid_resolution)
     return generate_scene(cfg.scene, index, robot_radius=cfg.sim.robot_radius,
                           objects_per_command=cfg.mission.objects_per_command,
                           footprint_radius=cfg.sim.footprint_radius)
@@ -37,6 +39,15 @@ def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, Oc
     design = scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
     record = feasibility_record(meas, drawn, cfg.mission.feasibility, design, cfg.mission.commands_per_mission)
     return [m for m, _ in drawn], record
+
+
+UNPICKABLE_MARKER = ("x", "#d62828")  # topdown.png: an object the robot cannot pick up (matplotlib marker, colour)
+
+
+def unpickable_markers(scene: SceneGraph, record: dict) -> list[tuple[float, float, str, str]]:
+    """topdown.png markers on the objects whose measured pickup never succeeded (feasibility.json)."""
+    return [(scene.objects[o].position[0], scene.objects[o].position[1], *UNPICKABLE_MARKER)
+            for o, e in sorted(record["objects"].items()) if e["pickup_sr"] <= 0]
 
 
 def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
@@ -55,6 +66,6 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
         missions, record = scene_missions(cfg, scene, {"presumed": presumed, "true": true})
         save_missions(d / "missions.json", missions)
         write_json(d / "feasibility.json", record)
-        render_topdown(scene, d / "topdown.png", grid=presumed)
+        render_topdown(scene, d / "topdown.png", grid=presumed, markers=unpickable_markers(scene, record))
         ids.append(scene.id)
     return ids
