@@ -44,11 +44,12 @@ def _scene_generate(args) -> int:
 
 
 def _scene_validate(args) -> int:
+    from interllm.config import SimConfig  # lazy: a command loads only its own code
     from interllm.scene import load_scene_file  # lazy: a command loads only its own code
     from interllm.scene.validate import SceneValidationError  # lazy: a command loads only its own code
 
     try:
-        scene = load_scene_file(args.file)
+        scene = load_scene_file(args.file, robot_radius=SimConfig().robot_radius)
     except SceneValidationError as e:
         print(f"invalid: {e}", file=sys.stderr)
         return 1
@@ -58,8 +59,9 @@ def _scene_validate(args) -> int:
 
 
 def _scene_import(args) -> int:
-    from interllm.config import SceneConfig, SimConfig  # lazy: a command loads only its own code
+    from interllm.config import ConfigError, from_dict  # lazy: a command loads only its own code
     from interllm.io import atomic_write_text  # lazy: a command loads only its own code
+    from interllm.overrides import compose_config  # lazy: a command loads only its own code
     from interllm.scene.grid import rasterize  # lazy: a command loads only its own code
     from interllm.scene.importer import (  # lazy: a command loads only its own code
         ImportOptions,
@@ -71,19 +73,30 @@ def _scene_import(args) -> int:
         SceneValidationError,
         validate_scene,
     )
+    from interllm.sim.reach_report import (  # lazy: a command loads only its own code
+        reach_report,
+        report_lines,
+    )
 
     out = _out_folder(args.out)
     report = ImportReport()
     try:
-        scene = import_procthor(args.file, report=report, opts=ImportOptions(strict=args.strict))
-        validate_scene(scene, source=str(args.file))
+        cfg = from_dict(compose_config(args.overrides), source="conf/ and the command line")
+    except ConfigError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    sim, res = cfg.sim, cfg.scene.grid_resolution  # reachability is judged for the configured robot
+    try:
+        scene = import_procthor(args.file, report=report, opts=ImportOptions(
+            strict=args.strict, robot_radius=sim.robot_radius, resolution=res))
+        validate_scene(scene, source=str(args.file), robot_radius=sim.robot_radius, resolution=res)
     except SceneValidationError as e:
         print(f"invalid: {e}", file=sys.stderr)
         return 1
     atomic_write_text(out / "scene.json", scene.to_json())
-    lines = report.lines() or ["nothing defaulted, dropped or moved"]
+    reach = report_lines(reach_report(scene, sim, res), sim.robot)
+    lines = reach + (report.lines() or ["nothing defaulted, dropped or moved"])
     atomic_write_text(out / "import_report.txt", "\n".join(lines) + "\n")
-    sim, res = SimConfig(), SceneConfig().grid_resolution  # the picture the scenes stage draws by default
     render_topdown(scene, out / "topdown.png", grid=rasterize(scene, res, sim.robot_radius, doors="presumed"))
     print("\n".join(["import report:"] + [f"  {ln}" for ln in lines]))
     print(f"wrote {out / 'scene.json'}, {out / 'import_report.txt'} and {out / 'topdown.png'}; use it with "
@@ -295,6 +308,8 @@ def _main(argv: list[str] | None = None) -> int:
     im = sc.add_parser("import-procthor", help="convert a ProcTHOR house JSON")
     im.add_argument("file")
     im.add_argument("--out", required=True)
+    im.add_argument("overrides", nargs="*", help="Hydra overrides as for pipeline.run, e.g. sim/robot=stretch: "
+                                                 "reachability and the reach report are for that robot")
     im.add_argument("--strict", action="store_true",
                     help="reject a child far off its parent and unreachable furniture (for authors of their "
                          "own houses) instead of repairing them")
