@@ -22,11 +22,13 @@ ROBOTS = ("generic", "manipulathor", "stretch")
 class SimConfig:
     # the mobile manipulator (interllm/sim/robots.py: dimensions and their sources); set it with the
     # Hydra group sim/robot=<name>, which also sets the two radii below to the robot's footprint
-    robot: str = "generic"
-    robot_radius: float = 0.25  # [m] the radius the robot's map is inflated by (what the planner assumes)
-    # [m] the base's true contact radius in MuJoCo; null: robot_radius less half a grid cell's
-    # diagonal, so a cell the map calls free never touches a wall or furniture (only door leaves)
-    footprint_radius: Optional[float] = 0.3
+    robot: str = "manipulathor"
+    # [m] the radius the robot's map is inflated by (what the planner assumes): 0.05 m less than the
+    # robot's true footprint, so the map is a little optimistic and a tight passage can cost a collision
+    robot_radius: float = 0.15
+    # [m] the base's true contact radius in MuJoCo (ManipulaTHOR's body capsule); null: robot_radius
+    # less half a grid cell's diagonal, so a cell the map calls free never touches a wall or furniture
+    footprint_radius: Optional[float] = 0.2
     # path search cost per metre grows by this factor next to obstacles (0: plain shortest paths);
     # the extra falls linearly from clearance_cost at the inflated obstacle to 0 at clearance_band [m]
     clearance_cost: float = 2.0

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from helpers.planners import FakeScoreClient, ListRecorder, SymbolicWorld, tiny_scene
-from helpers.scenes import START, house, mission, nav
+from helpers.scenes import GENERIC, START, house, mission, nav
 
 from interllm.config import ExperimentConfig, SimConfig
 from interllm.planners.candidates import generate_initial_candidates
@@ -31,7 +31,7 @@ def _crossing_y(path) -> float:
 def test_the_next_navigate_uses_the_map_only_where_it_persists(persistent):
     """door_a's leaf is half closed. The first trip hits it and goes on through door_b. Without a
     persistent map the next trip plans through door_a again and hits it again."""
-    w = World(house(open_a=0.5), SimConfig(persistent_map=persistent))
+    w = World(house(open_a=0.5), SimConfig(**GENERIC, persistent_map=persistent))
     w.reset(mission())
     first = w.execute(nav("sofa_1", "room_b"))
     assert first.success and first.collisions == 1 and 0.5 < _crossing_y(first.presumed_path) < 1.5
@@ -50,7 +50,7 @@ def test_inter_llm_learns_the_collision_through_its_known_costs():
     for it knows is the cost of the navigation that hit the leaf, higher than after a clean trip."""
     estimates = {}
     for open_a in (1.0, 0.5):
-        w = World(house(open_a=open_a), SimConfig(persistent_map=False))
+        w = World(house(open_a=open_a), SimConfig(**GENERIC, persistent_map=False))
         w.reset(mission())
         before = w.state
         res = w.execute(nav("sofa_1", "room_b"))

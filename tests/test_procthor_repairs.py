@@ -41,9 +41,10 @@ def _strict_rejects(house: dict, tmp_path: Path, capsys) -> str:
 
     f = tmp_path / "house.json"
     f.write_text(json.dumps(house), encoding="utf-8")
-    assert main(["scene", "import-procthor", str(f), "--out", str(tmp_path / "ok")]) == 0
+    robot = "sim/robot=generic"  # the 0.25 m robot these houses' tight spots are laid out for (as _import)
+    assert main(["scene", "import-procthor", str(f), robot, "--out", str(tmp_path / "ok")]) == 0
     capsys.readouterr()
-    assert main(["scene", "import-procthor", str(f), "--out", str(tmp_path / "strict"), "--strict"]) == 1
+    assert main(["scene", "import-procthor", str(f), robot, "--out", str(tmp_path / "strict"), "--strict"]) == 1
     return capsys.readouterr().err
 
 

@@ -11,7 +11,7 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from helpers.recording import make_actions, make_scene, rerun_cli, run_cli
-from helpers.scenes import house, mission, nav
+from helpers.scenes import GENERIC, house, mission, nav
 from mcap.reader import make_reader
 
 from interllm.config import SimConfig
@@ -48,11 +48,11 @@ def _base_pose(x, y, yaw):
 
 @pytest.fixture(scope="module")
 def kin():
-    return RobotKinematics(SimConfig())
+    return RobotKinematics(SimConfig(**GENERIC))
 
 
 def test_chain_matches_mujoco_on_the_full_house_model(kin):
-    w = World(house(), SimConfig())
+    w = World(house(), SimConfig(**GENERIC))
     w.reset(mission())
     rng = np.random.default_rng(0)
     m, d = w.physics.model, w.physics.data
@@ -94,7 +94,7 @@ def test_link_poses_batch_equals_single_and_quaternions_are_unit(kin):
 @pytest.fixture(scope="module")
 def carried(tmp_path_factory, kin):
     """A real run: drive to the table, pick the cup, drive to the counter, place it there."""
-    w = World(house(), SimConfig())
+    w = World(house(), SimConfig(**GENERIC))
     w.reset(mission())
     path = tmp_path_factory.mktemp("robot") / "carry.mcap"
     results = []
@@ -140,7 +140,7 @@ def test_tf_is_sparse_and_its_chain_puts_the_gripper_where_mujoco_does(carried, 
     assert first == {"base_link", *kin.frames}  # every frame at an action's first sample
     # replay the log's transforms (last one per frame at or before t) and compare with MuJoCo
     run = read_run(path)
-    check = World(house(), SimConfig())
+    check = World(house(), SimConfig(**GENERIC))
     check.reset(mission())
     pickup = results[1]
     for k in range(0, len(pickup.trajectory.t), 3):

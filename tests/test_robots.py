@@ -37,7 +37,7 @@ def test_the_robot_choices_are_the_descriptions_and_the_hydra_group():
     from interllm.overrides import CONF_DIR
 
     assert sorted(p.stem for p in (CONF_DIR / "sim" / "robot").glob("*.yaml")) == sorted(ROBOTS)
-    assert compose_config([])["sim"]["robot"] == "generic"
+    assert compose_config([])["sim"]["robot"] == "manipulathor" == SimConfig().robot
     for name in ROBOTS:
         assert _cfg(name).robot == name
 
@@ -150,14 +150,14 @@ def test_the_reach_report_counts_per_category_and_names_each_cause(tmp_path):
 
     scene = house()
     scene.objects["mug_1"] = SceneObject("mug_1", "mug", "counter_1", (0.72, 1.0, 0.95), (0.08, 0.08, 0.1))
-    generic = reach_report(scene, SimConfig())  # the apple stands deep on the table (test_sim_world)
+    generic = reach_report(scene, _cfg("generic"))  # the apple stands deep on the table (test_sim_world)
     assert {c: (r.pickable, r.objects) for c, r in generic.items()} == {"counter": (1, 1), "dining_table": (1, 2)}
     assert generic["dining_table"].causes == {"no_free_pose": 1}
     tall = reach_report(scene, _cfg("stretch"))
     assert tall["counter"].pickable == 0 and tall["counter"].causes == {"height": 1}  # top-down: below 1 m only
     assert tall["dining_table"].pickable == 1
     assert report_json(tall, "stretch")["by_furniture_category"]["counter"]["causes"] == {"height": 1}
-    assert object_cause(World(scene, SimConfig()), scene, "cup_1") == ""
+    assert object_cause(World(scene, _cfg("generic")), scene, "cup_1") == ""
 
 
 def test_scene_reach_command_takes_hydra_overrides(tmp_path):

@@ -3,6 +3,7 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from helpers.scenes import GENERIC
 
 from interllm.config import SimConfig
 from interllm.scene.graph import Door, Furniture, Room, SceneGraph, SceneObject, Wall
@@ -72,7 +73,7 @@ def test_scene_xml_round_trip_loads():
 
 def test_objects_settle_on_furniture_without_penetration():
     sg = _scene()
-    m = build_world_spec(sg, robot=True).compile()
+    m = build_world_spec(sg, robot=True, sim_cfg=SimConfig(**GENERIC)).compile()
     d = mujoco.MjData(m)
     d.qpos[:3] = (0.6, 2.4, 0.0)  # robot base in a free spot of room r1
     mujoco.mj_forward(m, d)
@@ -97,7 +98,7 @@ def test_objects_settle_on_furniture_without_penetration():
 
 
 def test_robot_reach_and_radius():
-    cfg = SimConfig(robot_radius=0.3)
+    cfg = SimConfig(**{**GENERIC, "robot_radius": 0.3})
     sg = _scene()
     m = build_world_spec(sg, robot=True, sim_cfg=cfg).compile()
     d = mujoco.MjData(m)

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers.scenes import FRONT, kitchen
+from helpers.scenes import FRONT, GENERIC, kitchen
 
 from interllm.config import SimConfig
 from interllm.core.actions import Action
@@ -22,7 +22,7 @@ from interllm.sim.world import World
 
 
 def reach_world(n_l: int = 20) -> World:
-    w = World(kitchen(), SimConfig(pose_protocol="reach", n_l=n_l, pose_margin=0.25))  # poses on both sides of reach
+    w = World(kitchen(), SimConfig(**GENERIC, pose_protocol="reach", n_l=n_l, pose_margin=0.25))  # poses on both sides of reach
     w.reset(Mission("m", "kitchen", (2.0, 1.5, 0.0), "counter_1", ()))
     return w
 
@@ -35,11 +35,11 @@ def horizontal_reach(target_z: float) -> float:
 
 
 def test_the_pose_region_is_the_arms_reach_at_the_targets_height_plus_the_margin():
-    cfg = SimConfig(pose_protocol="reach", pose_margin=0.05)
+    cfg = SimConfig(**GENERIC, pose_protocol="reach", pose_margin=0.05)
     assert arm_reach(0.95) == pytest.approx(horizontal_reach(0.95))
     assert arm_reach(1.5) < arm_reach(0.95) < arm_reach(0.5)  # high shelves and low tables reach less far
     assert pose_radius(cfg, 0.95) == pytest.approx(horizontal_reach(0.95) + 0.05)
-    assert pose_radius(SimConfig(pose_margin=1.0), 0.95) == SimConfig().pose_reach  # capped
+    assert pose_radius(SimConfig(**GENERIC, pose_margin=1.0), 0.95) == SimConfig(**GENERIC).pose_reach  # capped
 
 
 def test_reach_poses_are_distinct_free_within_reach_and_driven_to():
@@ -145,7 +145,7 @@ def test_an_arm_through_a_wall_is_a_failed_trial():
     pose = BasePose(3.7, 1.5, 0.0)
     outcomes = {}
     for protocol in ("window", "reach"):
-        cfg = SimConfig(pose_protocol=protocol)
+        cfg = SimConfig(**GENERIC, pose_protocol=protocol)
         ik = arm_ik.build_local_ik(sg, "table_1", cfg)
         trial, _ = trials.run_trial(cfg, ik, pose, target, inside, ik.obstacles(but=("cup_1",)))
         outcomes[protocol] = (trial.success, len(ik.structure_geoms))
@@ -172,8 +172,8 @@ def _cup_trial(cfg: SimConfig, neighbour: bool):
 
 
 def test_the_arm_slows_down_near_obstacles_so_clutter_costs_time():
-    constant = SimConfig(arm_slow_distance=0.0)
-    slowing = SimConfig()  # arm_slow_distance 0.15 m, arm_min_speed 0.2
+    constant = SimConfig(**GENERIC, arm_slow_distance=0.0)
+    slowing = SimConfig(**GENERIC)  # arm_slow_distance 0.15 m, arm_min_speed 0.2
     # without slowing, the arm time is the joint-space path length over joint_speed, exactly
     trial, (q_pre, q_grasp), ik = _cup_trial(constant, neighbour=False)
     assert trial.success

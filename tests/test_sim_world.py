@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers.scenes import START, house, mission, nav
+from helpers.scenes import GENERIC, START, house, mission, nav
 
 from interllm.config import SimConfig
 from interllm.core.actions import Action, State
@@ -13,7 +13,7 @@ from interllm.sim.world import World
 # The navigation numbers below are worked out for a base whose contact radius is the map's (less
 # half a cell diagonal) on plain shortest paths; tests/test_sim_contacts.py covers the true
 # footprint (sim.footprint_radius) and the clearance-weighted search.
-MAP_FOOTPRINT = {"footprint_radius": None, "clearance_cost": 0.0}
+MAP_FOOTPRINT = {**GENERIC, "footprint_radius": None, "clearance_cost": 0.0}
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +74,7 @@ def test_half_closed_door_one_collision_and_replan_through_other_door():
     # the belief map learned the leaf; the truth map is untouched and never used
     leaf_cell = tuple(w.belief.presumed.world_to_cell(np.array([3.9, 0.75])))
     assert w.belief.presumed.occupied[leaf_cell]
-    assert np.array_equal(w.belief.true.occupied, World(house(open_a=0.5)).belief.true.occupied)
+    assert np.array_equal(w.belief.true.occupied, World(house(open_a=0.5), SimConfig(**MAP_FOOTPRINT)).belief.true.occupied)
     # the next plan through the area avoids door_a at once
     p = w.presumed_path(START[:2], "sofa_1")
     cross = p[np.argmin(np.abs(p[:, 0] - 4.0))]
@@ -104,7 +104,7 @@ def test_bad_navigate_targets_fail_with_reason(world_open):
 
 
 def test_deep_object_fails_from_every_pose_front_succeeds():
-    w = World(house(), SimConfig())
+    w = World(house(), SimConfig(**GENERIC))
     w.reset(mission())
     assert w.execute(nav("table_1", "room_b")).success
     deep = w.execute(Action("pickup", "table_1", obj="apple_1"))
@@ -132,7 +132,7 @@ def test_deep_object_fails_from_every_pose_front_succeeds():
 
 
 def test_carry_moves_with_gripper_and_place_rests_on_surface():
-    w = World(house(), SimConfig())
+    w = World(house(), SimConfig(**GENERIC))
     w.reset(mission())
     w.execute(nav("table_1", "room_b"))
     assert w.execute(Action("pickup", "table_1", obj="cup_1")).success
@@ -167,7 +167,7 @@ def test_carry_moves_with_gripper_and_place_rests_on_surface():
 
 
 def test_manipulation_preconditions():
-    w = World(house(), SimConfig())
+    w = World(house(), SimConfig(**GENERIC))
     w.reset(mission())
     r = w.execute(Action("pickup", "table_1", obj="cup_1"))  # robot is at counter_1
     assert not r.success and "not at table_1" in r.reason and r.trials == []
@@ -177,7 +177,7 @@ def test_manipulation_preconditions():
 
 
 def _run(seed: int) -> list[dict]:
-    w = World(house(open_a=0.5), SimConfig(seed=seed))
+    w = World(house(open_a=0.5), SimConfig(**GENERIC, seed=seed))
     w.reset(mission())
     plan = [nav("sofa_1", "room_b"), nav("table_1", "room_b"), Action("pickup", "table_1", obj="cup_1"),
             nav("counter_1", "room_a"), Action("place", "counter_1", obj="cup_1")]

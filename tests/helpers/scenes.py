@@ -14,6 +14,11 @@ from interllm.scene.graph import Door, Furniture, Mission, Room, SceneGraph, Sce
 # door_b (y in [2.5, 3.5]). Grid cell centres are at -0.475 + 0.05 k.
 START = (1.525, 0.875, 0.0)
 
+# The v1 robot (sim/robot=generic) that the simulator's mechanics tests were written for: their
+# distances, collision counts and reach figures are worked out for its 0.25 / 0.30 m base and its
+# fixed 0.8 m shoulder. The robots themselves are tested in tests/test_robots.py.
+GENERIC = {"robot": "generic", "robot_radius": 0.25, "footprint_radius": 0.3}
+
 
 def house(open_a: float = 1.0, open_b: float = 1.0) -> SceneGraph:
     sg = SceneGraph(id="two_rooms", seed=0)
