@@ -128,11 +128,13 @@ def _run_in_worker(job: Job) -> None:
 
 
 def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, out_dir: Path,
-                 resolved_config: dict | None = None) -> None:
-    """Every planner on every mission: mission records, MCAP run logs, the call log, provenance."""
+                 resolved_config: dict | None = None, *, record_commit: bool = True) -> None:
+    """Every planner on every mission: mission records, MCAP run logs, the call log, provenance.
+    ``record_commit=False`` (the DVC stage) keeps the git commit out of the outputs (see
+    ``provenance.DVC_CHECKOUT``)."""
     check_registered(cfg)  # an unknown planner, backend or mode fails before any output
     out_dir = ensure_dir(out_dir)
-    prov = provenance(cfg, resolved_config)
+    prov = provenance(cfg, resolved_config, record_commit=record_commit)
     probe_path = Path(candidates_dir) / PROBE_FILE
     if probe_path.is_file():  # the LLM server's conformance probe, made by the candidates stage
         prov["llm_probe"] = read_json(probe_path)

@@ -48,14 +48,21 @@ def model_sha256(cfg: ExperimentConfig) -> str:
         return f"unavailable ({type(e).__name__}: {e})"
 
 
-def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None) -> dict:
+# What a DVC-tracked run records instead of the commit: its outputs are hashed into dvc.lock, and a
+# commit inside them would change that hash at every commit (a fresh clone's `make repro` would
+# leave dvc.lock modified although every result is the same bytes).
+DVC_CHECKOUT = "the commit that holds this dvc.lock (not recorded in DVC-hashed outputs)"
+
+
+def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None, *, record_commit: bool = True) -> dict:
     """The run's provenance. ``llama_cpp`` is llama.cpp's own account of its build (its SIMD
     features); ``llama_cpp_build`` adds which build ``make install`` chose (pinned or native) and
-    its flags: a cold-cache answer depends on them, a cached one does not."""
+    its flags: a cold-cache answer depends on them, a cached one does not. ``record_commit=False``
+    (the DVC stage): ``git_commit`` says :data:`DVC_CHECKOUT` instead of the commit."""
     build = llama_build.describe() if cfg.llm.backend == "embedded" else None
     return {
         "config": resolved_config if resolved_config is not None else dataclasses.asdict(cfg),
-        "git_commit": git_commit(),
+        "git_commit": git_commit() if record_commit else DVC_CHECKOUT,
         "packages": package_versions(),
         "python": platform.python_version(),
         "model_sha256": model_sha256(cfg),
