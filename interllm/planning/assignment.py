@@ -1,16 +1,24 @@
-"""The cheapest assignment of objects to a command's slots and targets, by exhaustive search over
-given costs (what the ``optimal`` reference planner computes from ground truth).
+"""The cheapest assignment of objects to a mission's slots and targets, over given costs (what the
+``optimal`` reference planner computes from ground truth).
 
 A delivery is (object, target): navigate to the object's furniture, pick it up, navigate to the
-target, place it. ``cheapest_assignment`` returns the ordered deliveries of ``n`` distinct objects
-(fewer when fewer are deliverable) minimising the summed cost
+target, place it. From location ``loc`` it costs
 
-    Σ nav(from, object's furniture) + pick(object) + nav(object's furniture, target) + place(object, target)
+    nav(loc, source) + pick + nav(source, target) + place.
 
-where ``from`` is the robot's start for the first delivery and the previous target after it.
-Deliveries come first: a plan with more deliveries always beats a cheaper one with fewer (the
-command asks for ``n`` objects). The search is depth-first with branch and bound, exact over the
-``max_objects`` objects cheapest to deliver on their own (all of them by default).
+A command's plan is an ordered list of deliveries of distinct objects, at most the command's ``n``;
+it starts where the previous command's plan ended (the robot's start for the first command) and
+ends at its last target. ``cheapest_mission`` picks one plan per command, no object in two
+commands, with the most deliveries over the whole mission first and then the least summed cost.
+It is exact over the costs it is given, by dynamic programming over the commands:
+
+    best(i, loc, used) = the best over plans p of command i from loc that avoid ``used`` of
+                         (|p|, cost(p)) + best(i + 1, end(p), used ∪ objects(p))
+
+``used`` is kept only for the objects later commands can use. Commands that share no object
+therefore do not multiply the states. Each command's plans come from a Held-Karp recursion: for
+every (set of objects delivered, last target), only the cheapest order is kept.
+``cheapest_assignment`` is the one-command case.
 """
 
 from __future__ import annotations
@@ -31,49 +39,92 @@ class Delivery:
     place: float  # cost of the place [cost units]
 
 
-def cheapest_assignment(start: str, deliveries: Sequence[Delivery], n: int, nav: NavCost,
-                        max_objects: int = 0) -> tuple[list[Delivery], float]:
-    """(ordered deliveries, total cost) of the cheapest plan with the most distinct objects (<= n).
+@dataclass(frozen=True)
+class CommandSlots:
+    """One command of a mission as the assignment sees it."""
 
-    start: the robot's location key for ``nav`` (e.g. "@start" or a furniture id).
-    deliveries: every feasible (object, target) option with its manipulation costs; an object may
-        appear once per target.
+    n: int  # objects it still asks for
+    options: tuple[Delivery, ...]  # every feasible (object, target) with its manipulation costs
+
+
+@dataclass(frozen=True)
+class MissionPlan:
+    plans: tuple[tuple[Delivery, ...], ...]  # per command, its ordered deliveries
+    deliveries: int
+    cost: float  # [cost units] summed over the mission
+
+
+Best = tuple[int, float, tuple]  # (deliveries, cost, per-command plans)
+
+
+def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost) -> MissionPlan:
+    """The plan of every command (module docstring): deliveries first, then the least cost.
+
+    start: the robot's location key for ``nav`` (e.g. "@robot" or a furniture id).
     nav(a, b): navigation cost from location a to furniture b (math.inf when there is no path).
-    max_objects: search only over the objects cheapest to deliver from ``start`` alone (0: all).
     """
-    by_obj: dict[str, list[Delivery]] = {}
-    for d in deliveries:
-        by_obj.setdefault(d.obj, []).append(d)
-    alone = {o: min(_step(start, d, nav) for d in ds) for o, ds in by_obj.items()}
-    objs = sorted((o for o in by_obj if math.isfinite(alone[o])), key=lambda o: (alone[o], o))
-    if max_objects > 0:
-        objs = objs[:max_objects]
-    options = {o: sorted(by_obj[o], key=lambda d: (d.target, d.pick + d.place)) for o in objs}
-    best: list = [[], math.inf]
-    want = min(n, len(objs))
+    by_obj = [_options_by_object(c.options) for c in commands]
+    later: list[frozenset[str]] = [frozenset()] * (len(commands) + 1)
+    for i in range(len(commands) - 1, -1, -1):  # objects command i or a later one can use
+        later[i] = later[i + 1] | frozenset(by_obj[i])
+    memo: dict[tuple[int, str, frozenset[str]], Best] = {}
 
-    def dfs(loc: str, chosen: list[Delivery], cost: float) -> None:
-        if len(chosen) == want:
-            if cost < best[1]:
-                best[0], best[1] = list(chosen), cost
-            return
-        if cost >= best[1]:
-            return
-        used = {d.obj for d in chosen}
-        for o in objs:
-            if o in used:
-                continue
-            for d in options[o]:
-                c = _step(loc, d, nav)
-                if math.isfinite(c):
-                    chosen.append(d)
-                    dfs(d.target, chosen, cost + c)
-                    chosen.pop()
+    def best(i: int, loc: str, used: frozenset[str]) -> Best:
+        if i == len(commands):
+            return 0, 0.0, ()
+        key = (i, loc, used)
+        if key not in memo:
+            found: Best = (-1, math.inf, ())
+            for objs, cost, seq in _command_plans(loc, by_obj[i], commands[i].n, used, nav):
+                end = seq[-1].target if seq else loc
+                rest = best(i + 1, end, (used | objs) & later[i + 1])
+                cand = (len(seq) + rest[0], cost + rest[1], (seq,) + rest[2])
+                if cand[0] > found[0] or (cand[0] == found[0] and cand[1] < found[1]):
+                    found = cand
+            memo[key] = found
+        return memo[key]
 
-    dfs(start, [], 0.0)
-    if want and not best[0]:  # no ordering of `want` objects is connected: take fewer
-        return cheapest_assignment(start, deliveries, want - 1, nav, max_objects)
-    return best[0], (best[1] if best[0] else 0.0)
+    n_done, total, plans = best(0, start, frozenset())
+    return MissionPlan(plans, n_done, total if n_done else 0.0)
+
+
+def cheapest_assignment(start: str, deliveries: Sequence[Delivery], n: int, nav: NavCost) -> tuple[list[Delivery], float]:
+    """(ordered deliveries, total cost) of the cheapest plan with the most distinct objects (<= n)
+    of one command: ``cheapest_mission`` with one command."""
+    plan = cheapest_mission(start, [CommandSlots(n, tuple(deliveries))], nav)
+    return list(plan.plans[0]), plan.cost
+
+
+def _options_by_object(options: Sequence[Delivery]) -> dict[str, tuple[Delivery, ...]]:
+    out: dict[str, list[Delivery]] = {}
+    for d in sorted(options, key=lambda d: (d.obj, d.target)):
+        out.setdefault(d.obj, []).append(d)
+    return {o: tuple(ds) for o, ds in out.items()}
+
+
+def _command_plans(loc: str, by_obj: dict[str, tuple[Delivery, ...]], n: int, used: frozenset[str],
+                   nav: NavCost) -> list[tuple[frozenset[str], float, tuple[Delivery, ...]]]:
+    """(object set, cost, ordered plan) of one command from ``loc``: the cheapest order per (object
+    set, last target), of every size up to ``n`` (the empty plan included). Plans that end at
+    different targets are all kept: the next command starts there."""
+    Layer = dict[tuple[frozenset[str], str], tuple[float, tuple[Delivery, ...]]]
+    layer: Layer = {(frozenset(), loc): (0.0, ())}
+    found = [(frozenset(), 0.0, ())]
+    free = [o for o in by_obj if o not in used]
+    for _ in range(max(n, 0)):
+        grown: Layer = {}
+        for (objs, end), (cost, seq) in layer.items():
+            for o in free:
+                if o in objs:
+                    continue
+                for d in by_obj[o]:
+                    c = cost + _step(end, d, nav)
+                    key = (objs | {o}, d.target)
+                    if math.isfinite(c) and (key not in grown or c < grown[key][0]):
+                        grown[key] = (c, seq + (d,))
+        found += [(objs, cost, seq) for (objs, _end), (cost, seq) in grown.items()]
+        layer = grown
+    return found
 
 
 def _step(loc: str, d: Delivery, nav: NavCost) -> float:
