@@ -8,17 +8,26 @@ import math
 
 import numpy as np
 import pytest
-from helpers.planners import SymbolicWorld, run_tiny_mission, tiny_mission, tiny_scene
+from helpers.planners import (
+    FakeScoreClient,
+    ListRecorder,
+    SymbolicWorld,
+    run_tiny_mission,
+    tiny_mission,
+    tiny_scene,
+)
 
 from interllm.config import ExperimentConfig, LLMConfig
 from interllm.core.actions import Action, State
+from interllm.core.results import ActionResult
 from interllm.planners import PLANNERS
+from interllm.planners.runner import run_mission
 from interllm.planning import oracle
-from interllm.planning.assignment import Delivery, cheapest_assignment
+from interllm.planning.assignment import CommandSlots, Delivery, cheapest_assignment, cheapest_mission
 from interllm.planning.costs import expected_failure_cost, failure_chance
 from interllm.planning.proposers import OracleCosts, estimate_of, success_rate_of
 from interllm.planning.scoring import SemanticScores, sample_selections
-from interllm.scene.graph import Command, Goal
+from interllm.scene.graph import Command, Goal, Mission
 
 # ---- the assignment search -------------------------------------------------------------------
 
@@ -66,6 +75,71 @@ def test_the_assignment_takes_more_deliveries_before_lower_cost():
     assert [d.obj for d in chosen] == ["cheap"]
 
 
+def _command_plans_brute(loc, options, n, used, nav):
+    """Every ordered plan of one command from loc: (objects, end, cost, deliveries)."""
+    objs = sorted({d.obj for d in options} - used)
+    for k in range(min(n, len(objs)) + 1):
+        for perm in itertools.permutations(objs, k):
+            for choice in itertools.product(*[[d for d in options if d.obj == o] for o in perm]):
+                at, c = loc, 0.0
+                for d in choice:
+                    c += nav(at, d.source) + d.pick + nav(d.source, d.target) + d.place
+                    at = d.target
+                if math.isfinite(c):
+                    yield set(perm), at, c, len(choice)
+
+
+def _mission_brute(loc, commands, used=frozenset()):
+    """(deliveries, cost) of the best mission plan by enumerating every combination of plans."""
+    if not commands:
+        return 0, 0.0
+    best = (-1, math.inf)
+    for objs, end, c, k in _command_plans_brute(loc, commands[0][1], commands[0][0], set(used), commands[0][2]):
+        d_rest, c_rest = _mission_brute(end, commands[1:], frozenset(used | objs))
+        if (k + d_rest, -(c + c_rest)) > (best[0], -best[1]):
+            best = (k + d_rest, c + c_rest)
+    return best
+
+
+def test_the_mission_assignment_is_the_exhaustive_optimum_over_all_commands_at_once():
+    """Commands compete for objects (the books the reading command and the bedtime command both
+    want) and each starts where the last ended: the mission plan is the brute-force optimum."""
+    rng = np.random.default_rng(1)
+    shared_objects = 0
+    for _ in range(40):
+        pos = {f"f{i}": float(rng.uniform(0, 20)) for i in range(7)}
+        pos["@s"] = float(rng.uniform(0, 20))
+        nav = _line_nav(pos)
+        pool = [(f"o{i}", f"f{int(rng.integers(4))}") for i in range(5)]
+        commands = []
+        for targets in (("f4",), ("f5", "f6"), ("f4", "f6")):
+            objs = [p for p in pool if rng.random() < 0.5]
+            ds = tuple(Delivery(o, src, t, float(rng.uniform(1, 30)), float(rng.uniform(1, 30)))
+                       for o, src in objs for t in targets if rng.random() < 0.8)
+            commands.append((int(rng.integers(1, 3)), ds, nav))
+        got = cheapest_mission("@s", [CommandSlots(n, ds) for n, ds, _ in commands], nav)
+        want = _mission_brute("@s", commands)
+        assert got.deliveries == want[0] and got.cost == pytest.approx(want[1])
+        chosen = [d.obj for plan in got.plans for d in plan]
+        assert len(chosen) == len(set(chosen)) == got.deliveries  # no object serves two commands
+        sets = [{d.obj for d in ds} for _, ds, _ in commands]
+        shared_objects += bool(sets[0] & sets[1] or sets[1] & sets[2] or sets[0] & sets[2])
+    assert shared_objects > 20  # most instances make commands compete
+
+
+def test_a_mission_plan_leaves_an_earlier_command_the_object_a_later_command_cannot_do_without():
+    """Command 1 can take the book or the glasses, command 2 only the book: per command, the book
+    (cheaper) would go to command 1 and command 2 would deliver nothing."""
+    pos = {"@s": 0.0, "shelf": 1.0, "desk": 30.0, "sofa": 2.0, "bed": 3.0}
+    nav = _line_nav(pos)
+    first = CommandSlots(1, (Delivery("book", "shelf", "sofa", 1.0, 1.0), Delivery("glasses", "desk", "sofa", 1.0, 1.0)))
+    second = CommandSlots(1, (Delivery("book", "shelf", "bed", 1.0, 1.0),))
+    alone, _ = cheapest_assignment("@s", first.options, 1, nav)
+    assert [d.obj for d in alone] == ["book"]
+    plan = cheapest_mission("@s", [first, second], nav)
+    assert [[d.obj for d in p] for p in plan.plans] == [["glasses"], ["book"]] and plan.deliveries == 2
+
+
 # ---- the reference planners ----------------------------------------------------------------
 
 
@@ -103,6 +177,41 @@ def test_optimal_replans_without_an_object_whose_execution_fails(monkeypatch):
     rec, world = run_tiny_mission("optimal")
     c1 = rec["commands"][0]
     assert c1["final_locations"] == {"banana_1": "dining_table_1"} and c1["summary"]["replans"] >= 1
+
+
+def _optimal_on(commands, world_type=SymbolicWorld):
+    """``optimal`` on a mission of ``commands`` in the tiny scene, starting at the dining table."""
+    scene, cfg = tiny_scene(), ExperimentConfig()
+    mission = Mission("m000", "tiny", (2.0, 0.4, 0.0), "dining_table_1", tuple(commands))
+    world = world_type(scene, cfg.sim)
+    rec = run_mission("optimal", world, mission, {c.id: [] for c in commands}, FakeScoreClient(), cfg,
+                      recorder=ListRecorder()).to_dict()
+    return [c["final_locations"] for c in rec["commands"]], rec
+
+
+def test_optimal_leaves_a_later_command_the_object_it_cannot_do_without():
+    # the book (on the sofa) is the cheaper of the first command's two choices, and the only one
+    # the second command can take: planned one command at a time the second delivers nothing
+    first = Command("tidy", "Put a book or a mug on the dining table", Goal(("book", "mug"), ("dining_table_1",), 1))
+    second = Command("read", "Put a book on the counter", Goal(("book",), ("counter_1",), 1))
+    finals, _ = _optimal_on([first, second])
+    assert finals == [{"mug_1": "dining_table_1"}, {"book_1": "counter_1"}]
+    alone, _ = _optimal_on([first])
+    assert alone == [{"book_1": "dining_table_1"}]  # on its own the first command takes the book
+
+
+def test_optimal_puts_an_object_a_target_refused_on_the_other_target():
+    class FullTable(SymbolicWorld):  # the table is measured as free, but the apple's place there fails
+        def execute(self, action):
+            if action.kind == "place" and action.furniture == "dining_table_1":
+                self.executed.append(str(action))
+                return ActionResult(action, False, 50.0, 4.0, self.clock, success_rate=0.0,
+                                    reason=f"{action}: no free spot")
+            return super().execute(action)
+
+    cmd = Command("fruit", "Put an apple on the table or the desk", Goal(("apple",), ("dining_table_1", "desk_1"), 1))
+    finals, rec = _optimal_on([cmd], FullTable)
+    assert finals == [{"apple_1": "desk_1"}] and rec["commands"][0]["summary"]["replans"] == 1
 
 
 # ---- candidates that differ in objects ----------------------------------------------------
