@@ -28,7 +28,7 @@ def every_instance(planner: OptimalPlanner, command, ctx, nav) -> list:
     """The alternative: every instance's pickup, then places on its nearest accepting targets."""
     targets = [t for t in command.goal.target_furniture if t in ctx.world.scene.furniture]
     return [d for oid in planner.instances(command, ctx, targets)
-            for d in planner.measured_deliveries(oid, targets, ctx, nav)]
+            for d in planner.measured_deliveries(oid, targets, ctx)]
 
 
 def main(alternative: bool) -> None:

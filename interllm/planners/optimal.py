@@ -17,13 +17,14 @@ times per command.
 Instances: objects of a requested category, not on one of the command's targets, not delivered
 already. A pickup or place whose measured success rate is 0 is not an option. Measurement is lazy
 and best-first (``cheapest_instances``): an instance's own delivery cost (pick + nav(source,
-target) + place) is bounded below before its pickup is measured by the path to the nearest target
-plus two manipulation floors (``manipulation_floor``), and before each place by the measured pickup
-plus the path plus one floor; the smallest bound is refined first. The search takes the
+target) + place) is bounded below before its pickup is measured by the straight line to the nearest
+target plus two manipulation floors (``manipulation_floor``), and before each place by the measured
+pickup plus the straight line, then the planned path, plus one floor; the smallest bound is refined
+first, so paths are planned and actions measured only where they could matter. The search takes the
 ``MAX_OBJECTS`` instances cheapest to deliver on their own, plus as many as the other commands that
-share a category ask for, and for each the ``MAX_TARGETS`` accepting targets nearest its furniture.
-It is exact over those: over every instance when a command's categories have that few, over every
-target when a command names that few (all of the default experiment's do). A 110-room house costs a
+share a category ask for, and for each the ``MAX_TARGETS`` accepting targets nearest its furniture
+in a straight line. It is exact over those: over every instance when a command's categories have
+that few, over every target when a command names that few (all of the default experiment's do). A 110-room house costs a
 few hundred measurements per command, not thousands (``benchmarks/bench_optimal_huge.py``). Places
 are measured in the layout as it is when the search runs: a target that fills up shows at
 execution, and the search then runs again. The report places every planner between ``nothing`` (0)
@@ -50,9 +51,11 @@ from interllm.planning.costs import path_length
 from interllm.planning.plans import assemble_deliveries
 from interllm.scene.graph import Command
 
-_FINAL, _PICK, _PLACE = 0, 1, 2  # search entries of ``cheapest_instances``, in tie-break order
+_FINAL, _PICK, _PATH, _PLACE = 0, 1, 2, 3  # search entries of ``cheapest_instances``, in tie-break order
 START = "@robot"  # the robot's current pose as a search location
 MAX_OBJECTS = 12  # instances per command measured and searched, besides other commands' shares
+NAV_SLACK = 1.5  # [m] a presumed path's start cell may lie this far from its start point at most
+# (``GridSearch`` snaps a start up to its snap_radius, 1 m, plus the cells at both ends)
 MAX_TARGETS = 8  # accepting targets per instance searched, the nearest to its furniture (the default
 # experiment's commands name at most 8, so the search is exact over targets there)
 
@@ -104,28 +107,29 @@ class OptimalPlanner:
         own (pick + nav(source, target) + place), found best-first (module docstring)."""
         targets = [t for t in command.goal.target_furniture if t in ctx.world.scene.furniture]
         cheapest = self.cheapest_instances(self.instances(command, ctx, targets), targets, ctx, nav, budget)
-        return [d for oid in cheapest for d in self.measured_deliveries(oid, targets, ctx, nav)]
+        return [d for oid in cheapest for d in self.measured_deliveries(oid, targets, ctx)]
 
     def cheapest_instances(self, instances: list[str], targets: list[str], ctx: PlannerContext, nav: NavCost,
                            budget: int) -> list[str]:
-        """The ``budget`` instances with the least own delivery cost, cheapest first, measuring in
-        order of lower bounds: nav(source, nearest target) + 2 floors before the pickup is measured,
-        pick + nav(source, target) + floor per target before its place is measured. An instance is
-        final when its best measured cost is below every bound left, so each one measured could
-        have been among the cheapest."""
+        """The ``budget`` instances with the least own delivery cost (pick + nav(source, target) +
+        place), cheapest first. Entries are refined in order of lower bounds: before the pickup is
+        measured, the straight-line floor of the path to the nearest target plus two manipulation
+        floors; per target, the measured pickup plus the straight-line floor plus one floor, then
+        with the planned path instead, then with the measured place. An instance is final when its
+        best cost is below every bound left, so each one refined could have been among the
+        cheapest. Straight-line floors keep the path searches to the few pairs that could matter."""
         world = ctx.world
         floor = manipulation_floor(world.cfg)
+        line = self.nav_floor(ctx)
         source = {o: world.scene.objects[o].furniture for o in instances}
         heap: list[tuple[float, int, str, str]] = []  # (bound or cost [s], kind, object, target)
         for oid in instances:
-            near = min((nav(source[oid], t) for t in targets), default=math.inf)
-            if math.isfinite(near):
-                heap.append((near + 2 * floor, _PICK, oid, ""))
+            heap.append((min((line(source[oid], t) for t in targets), default=math.inf) + 2 * floor, _PICK, oid, ""))
         heapq.heapify(heap)
         pick: dict[str, float] = {}
         best: dict[str, float] = {}
         final: list[str] = []
-        while heap and len(final) < budget:
+        while heap and len(final) < budget and math.isfinite(heap[0][0]):
             bound, kind, oid, target = heapq.heappop(heap)
             if oid in final or bound >= best.get(oid, math.inf) and kind != _FINAL:
                 continue
@@ -137,7 +141,9 @@ class OptimalPlanner:
                     pick[oid] = float(measured.cost)
                     for t in targets:
                         if (oid, t) not in self.failed:
-                            heapq.heappush(heap, (pick[oid] + nav(source[oid], t) + floor, _PLACE, oid, t))
+                            heapq.heappush(heap, (pick[oid] + line(source[oid], t) + floor, _PATH, oid, t))
+            elif kind == _PATH:
+                heapq.heappush(heap, (pick[oid] + nav(source[oid], target) + floor, _PLACE, oid, target))
             else:
                 measured = world.measure_manipulation(Action("place", target, obj=oid))
                 if measured is not None and measured.success_rate > 0:
@@ -154,17 +160,17 @@ class OptimalPlanner:
                 if o.category in wanted and o.furniture not in targets and oid not in taken
                 and o.furniture in scene.furniture and (oid, o.furniture) not in self.failed]
 
-    def measured_deliveries(self, oid: str, targets: list[str], ctx: PlannerContext,
-                            nav: Optional[NavCost] = None) -> list[Delivery]:
+    def measured_deliveries(self, oid: str, targets: list[str], ctx: PlannerContext) -> list[Delivery]:
         """The deliveries of ``oid`` whose pickup and place the simulator measures as possible: the
-        pickup, then places on its targets in order of nav(source, target), stopping after
+        pickup, then places on its targets in order of their straight-line distance, stopping after
         ``MAX_TARGETS`` accepting targets (all of them when the command names no more)."""
         world = ctx.world
         src = world.scene.objects[oid].furniture
         pick = world.measure_manipulation(Action("pickup", src, obj=oid))
         if pick is None or pick.success_rate <= 0:
             return []
-        order = sorted(targets, key=lambda t: (nav(src, t), t)) if nav else list(targets)
+        line = self.nav_floor(ctx)
+        order = sorted(targets, key=lambda t: (line(src, t), t))
         out: list[Delivery] = []
         for t in order:
             if len(out) >= MAX_TARGETS:
@@ -175,6 +181,19 @@ class OptimalPlanner:
             if place is not None and place.success_rate > 0:
                 out.append(Delivery(oid, src, t, float(pick.cost), float(place.cost)))
         return out
+
+    def nav_floor(self, ctx: PlannerContext) -> NavCost:
+        """A lower bound on ``nav_costs`` with no path search: the straight line between the two
+        anchors, less ``NAV_SLACK`` (a path runs between grid cells, its start snapped up to 1 m)."""
+        world = ctx.world
+        robot = world.robot_pose[:2]
+
+        def line(a: str, b: str) -> float:
+            xa, ya = robot if a == START else world.anchor(a)
+            xb, yb = world.anchor(b)
+            length = max(math.hypot(xb - xa, yb - ya) - NAV_SLACK, 0.0)
+            return length / ctx.base_speed + length
+        return line
 
     def nav_costs(self, ctx: PlannerContext) -> NavCost:
         """nav(from, to): c_nav of the presumed path with no collision (length/base_speed + length)."""
