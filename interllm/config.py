@@ -76,6 +76,10 @@ class SceneConfig:
     wall_thickness: float = 0.1  # [m]
     wall_height: float = 2.5  # [m]
     grid_resolution: float = 0.05  # [m] per occupancy cell
+    # the scenes stage measures every object's pickup (feasibility.json's reach report, topdown.png's
+    # marks cover the whole house); false: only the instances the mission draw examines (the huge
+    # preset: 2,000 pickups would be most of its scenes stage; `interllm scene reach` gives the report)
+    reach_report: bool = True
     import_path: Optional[str] = None  # a user scene in our JSON (a ProcTHOR house: `interllm scene import-procthor` first)
 
     def validate(self) -> None:

@@ -201,3 +201,28 @@ def test_scenes_stage_is_deterministic_and_writes_feasibility(tmp_path):
     meas = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, cfg.mission.objects_per_command)
     assert set(meas.pickups) == set(scene.objects)
     assert b'"slots_fulfillable"' in outs[0]["feasibility.json"]
+
+
+@pytest.mark.parametrize("k, per_mission", [(1, 2), (2, 2)])
+def test_the_lazy_measurement_draws_the_missions_of_measuring_everything(k, per_mission):
+    """Examining a command's instances only until k x commands_per_mission are fulfillable, the
+    targets only until they take k, and picking up only the instances examined: fewer measurements,
+    the same missions and fills (here the lazy search stops early: paper commands have up to 8)."""
+    cfg = ExperimentConfig()  # ManipulaTHOR, the default robot
+    cfg.mission = replace(cfg.mission, objects_per_command=k, commands_per_mission=per_mission)
+    scene = generate_scene(scene_config("paper"), 0)
+    grids = _grids(cfg, scene)
+    full = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids)
+    lazy = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids, need=k * per_mission, all_pickups=False)
+    assert len(lazy.pickups) <= len(full.pickups) == len(scene.objects)
+    assert sum(map(len, (m.place_sr for m in lazy.commands.values()))) < \
+        sum(map(len, (m.place_sr for m in full.commands.values())))
+    assert sum(map(len, (m.capacity for m in lazy.commands.values()))) < \
+        sum(map(len, (m.targets for m in lazy.commands.values())))
+    for c in full.commands:
+        assert lazy.fulfillable().fill(c, k) == full.fulfillable().fill(c, k), c
+    draws = [draw_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
+                           footprint_radius=cfg.sim.footprint_radius, fulfillable=m.fulfillable())
+             for m in (full, lazy)]
+    assert [(m, [(f.command, f.matched, f.status) for f in fills]) for m, fills in draws[0]] == \
+        [(m, [(f.command, f.matched, f.status) for f in fills]) for m, fills in draws[1]]

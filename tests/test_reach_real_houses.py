@@ -82,7 +82,7 @@ def test_the_scenes_stage_records_reach_per_category_and_crosses_out_what_cannot
     cfg = SimConfig()
     meas = measure_scene(scene, cfg, 0.05, 3)
     record = feasibility_record(meas, [], "measured", "imported", 3)
-    assert record["schema_version"] == 2
+    assert record["schema_version"] == 3 and record["objects_measured"] == "all"
     direct = reach_report(scene, cfg)
     assert record["reach"] == {c: {"objects": r.objects, "pickable": r.pickable, "causes": dict(r.causes)}
                                for c, r in direct.items()}

@@ -3,16 +3,19 @@ judged by the simulator's own measurement, and how the missions' slots are fille
 
 ``measure_scene`` builds a ``World`` of the scene and measures with ``World.measure_manipulation``
 (the N_l-trial measurement from the furniture's anchor, in scratch; nothing moves):
-- the pickup of every object from its furniture;
+- the pickup of every object from its furniture (``scene.reach_report``; otherwise only of the
+  instances examined below);
 - for every catalog command whose targets exist, the place of each of its candidate instances
   (its category, not on one of its targets, pickup success rate > 0) on each target, the target's
   current objects left where they are, target after target (sorted ids) up to the first place with
-  success rate > 0: then the instance is *fulfillable* for the command;
+  success rate > 0: then the instance is *fulfillable* for the command. Instances are examined in
+  id order until k x commands_per_mission are fulfillable: enough for any mission's commands to
+  get k distinct ones each, so the draw's fills are those of examining all;
 - the targets' capacity: per target, the fulfillable instances that place on it (smallest
   footprint first, then highest pickup success rate, then id) are placed one after the other in a
   scratch copy of the scene, each at the spot its place measurement uses
-  (``sim.grasp_goals.place_spot``), until a place fails or k are on it; the command's capacity is
-  the sum over its targets, at most k. Approximations: the capacity is that of the smallest
+  (``sim.grasp_goals.place_spot``), until a place fails or k are on it; target after target until
+  they take k. The command's capacity is the sum over its targets, at most k. Approximations: the capacity is that of the smallest
   instances (a planner taking larger ones may fit fewer), the matching of a mission's slots to
   instances ignores sizes, and what an earlier command of the mission left on a shared target is
   not counted.
@@ -24,7 +27,7 @@ judged by the simulator's own measurement, and how the missions' slots are fille
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -32,14 +35,14 @@ from interllm.config import SimConfig
 from interllm.core.actions import Action
 from interllm.core.results import ActionResult
 from interllm.scene.catalog import Catalog, CommandSpec, load_catalog
-from interllm.scene.graph import Mission, SceneGraph
+from interllm.scene.graph import Mission, SceneGraph, SceneObject
 from interllm.scene.grid import OccupancyGrid
 from interllm.scene.missions import CommandFill, Fulfillable
 from interllm.sim.grasp_goals import place_spot
 from interllm.sim.reach_report import CAUSES, pickup_cause
 from interllm.sim.world import World
 
-FEASIBILITY_SCHEMA_VERSION = 2  # 2: objects[].cause and reach
+FEASIBILITY_SCHEMA_VERSION = 3  # 2: objects[].cause and reach; 3: objects_measured, lazy command search
 DIFFICULTY = {"front": "easy", "clutter": "medium", "deep": "hard", "high": "hard", "inside": "hard"}  # by placement label
 DIGITS = 6  # rounding of success rates, costs and times in the record
 MAX_PASSED = 2  # capacity: instances passed over (cannot be placed on the empty target) before giving up
@@ -84,6 +87,7 @@ class SceneFeasibility:
     pickups: dict[str, PickupMeasure]
     commands: dict[str, CommandMeasure]
     reach: dict[str, dict] = field(default_factory=dict)  # per furniture category (``_reach``)
+    all_pickups: bool = True  # pickups holds every object (else only the instances examined)
 
     def fulfillable(self) -> Fulfillable:
         """The plain data the mission draw takes."""
@@ -105,41 +109,65 @@ def _sr(res: Optional[ActionResult]) -> float:
 
 
 def measure_scene(scene: SceneGraph, sim_cfg: SimConfig, grid_resolution: float, k: int,
-                  grids: Optional[dict[str, OccupancyGrid]] = None, catalog: Optional[Catalog] = None
-                  ) -> SceneFeasibility:
+                  grids: Optional[dict[str, OccupancyGrid]] = None, catalog: Optional[Catalog] = None,
+                  *, need: Optional[int] = None, all_pickups: bool = True) -> SceneFeasibility:
     """Measure ``scene`` (module doc) for commands of ``k`` objects.
 
     sim_cfg: the simulator's config (robot, N_l, IK, seed: the measurement depends on all of it).
     grid_resolution: [m] per cell; grids: the scene's {"presumed", "true"} grids if already made.
+    need: a command's instances are examined (sorted ids) until this many are fulfillable (None:
+        all). The draw needs k x commands_per_mission at most: with that many, any mission's
+        commands can each get k distinct ones, so the fills are those of measuring everything.
+    all_pickups: measure every object's pickup (the reach report covers the whole house); False:
+        only those of the instances examined.
     """
     cat = catalog or load_catalog()
     world = World(scene, sim_cfg, grid_resolution, grids)
-    pickups = {}
-    for oid in sorted(scene.objects):
-        o = scene.objects[oid]
-        res = _measure(world, Action("pickup", o.furniture, obj=oid))
-        pickups[oid] = PickupMeasure(o.furniture, o.category, o.placement, _sr(res),
-                                     round(float(res.cost), DIGITS) if res else 0.0,
-                                     round(float(res.time), DIGITS) if res else 0.0,
-                                     pickup_cause(sim_cfg, scene, oid, res))
+    pickups: dict[str, PickupMeasure] = {}
+
+    def pickup(oid: str) -> PickupMeasure:
+        if oid not in pickups:
+            o = scene.objects[oid]
+            res = _measure(world, Action("pickup", o.furniture, obj=oid))
+            pickups[oid] = PickupMeasure(o.furniture, o.category, o.placement, _sr(res),
+                                         round(float(res.cost), DIGITS) if res else 0.0,
+                                         round(float(res.time), DIGITS) if res else 0.0,
+                                         pickup_cause(sim_cfg, scene, oid, res))
+        return pickups[oid]
+
+    for oid in sorted(scene.objects) if all_pickups else ():
+        pickup(oid)
     commands = {}
     for spec in cat.commands:
         targets = spec.resolve_targets(scene)
         if targets:
-            commands[spec.id] = _measure_command(world, spec, targets, pickups, k)
-    return SceneFeasibility(scene.id, int(k), pickups, commands, _reach(scene, pickups))
+            commands[spec.id] = _measure_command(world, spec, targets, pickup, k, need)
+    measured = {o: pickups[o] for o in sorted(pickups)}
+    return SceneFeasibility(scene.id, int(k), measured, commands, _reach(scene, measured), all_pickups)
 
 
 def _measure_command(world: World, spec: CommandSpec, targets: tuple[str, ...],
-                     pickups: dict[str, PickupMeasure], k: int) -> CommandMeasure:
-    """Place measurements of the command's pickable instances on each target, and the capacities."""
+                     pickup: Callable[[str], PickupMeasure], k: int, need: Optional[int]) -> CommandMeasure:
+    """Place measurements of the command's pickable instances on each target (until ``need`` are
+    fulfillable), and the targets' capacities (target after target until they take k)."""
     instances = spec.valid_objects(world.initial_scene)
-    place_sr = {o: _first_place(world, o, targets) for o in instances if pickups[o].sr > 0}
-    fulfillable = tuple(o for o, srs in place_sr.items() if any(v > 0 for v in srs.values()))
+    place_sr: dict[str, dict[str, float]] = {}
+    fulfillable: list[str] = []
+    for o in instances:
+        if need is not None and len(fulfillable) >= need:
+            break
+        if pickup(o).sr > 0:
+            place_sr[o] = _first_place(world, o, targets)
+            if any(v > 0 for v in place_sr[o].values()):
+                fulfillable.append(o)
     scene = world.initial_scene
-    order = sorted(fulfillable, key=lambda o: (scene.objects[o].size[0] * scene.objects[o].size[1], -pickups[o].sr, o))
-    capacity = {t: _capacity(world, t, order, k) for t in targets}
-    return CommandMeasure(targets, tuple(instances), place_sr, fulfillable, capacity)
+    order = sorted(fulfillable, key=lambda o: (scene.objects[o].size[0] * scene.objects[o].size[1], -pickup(o).sr, o))
+    capacity: dict[str, int] = {}
+    for t in targets:
+        if sum(capacity.values()) >= k:
+            break
+        capacity[t] = _capacity(world, t, order, k)
+    return CommandMeasure(targets, tuple(instances), place_sr, tuple(fulfillable), capacity)
 
 
 def _first_place(world: World, oid: str, targets: Sequence[str]) -> dict[str, float]:
@@ -158,6 +186,8 @@ def _capacity(world: World, target: str, order: Sequence[str], k: int) -> int:
     cannot be placed on the target as it stands is passed over (at most MAX_PASSED of them); once
     one is on it, the first failure ends the count."""
     n = passed = 0
+    moved: dict[str, SceneObject] = {}  # what the count changed, put back after it (a copy of a
+    # 2,000-object scene per target cost the huge house 90 s)
     try:
         for oid in order:
             if n >= k or passed > MAX_PASSED:
@@ -169,10 +199,11 @@ def _capacity(world: World, target: str, order: Sequence[str], k: int) -> int:
                     break
                 passed += 1
                 continue
+            moved.setdefault(oid, world.scene.objects[oid])
             world.scene.move_object(oid, target, tuple(float(v) for v in spot))
             n += 1
     finally:
-        world.scene = world.initial_scene.copy()
+        world.scene.objects.update(moved)
     return n
 
 
@@ -180,11 +211,13 @@ def feasibility_record(meas: SceneFeasibility, drawn: Sequence[tuple[Mission, Se
                        mode: str, object_design: str, commands_per_mission: int) -> dict:
     """The ``feasibility.json`` document of a scene:
 
+    - ``objects_measured``: "all" (``scene.reach_report``) or "examined" (the instances the
+      command search examined): which objects ``objects``, ``difficulty`` and ``reach`` cover;
     - ``objects``: object id -> {furniture, category, placement, difficulty (front: easy, clutter:
       medium, deep / high / inside: hard), pickup_sr, pickup_cost, pickup_time [s], cause};
     - ``commands``: command id -> {targets, instances (right category, not on a target),
-      fulfillable, place_sr {instance: {target: sr}} (pickable instances, targets up to the first
-      success), capacity {target: n}, fill (objects it can get on its own, at most k)};
+      fulfillable, place_sr {instance: {target: sr}} (pickable instances examined, targets up to the
+      first success), capacity {target: n} (targets measured, until they take k), fill (objects it can get on its own, at most k)};
     - ``missions``: [{id, commands: [{id, asked, n_objects, matched, status, instances, fulfillable}]}]
       (``scene.missions.CommandFill``; dropped commands are listed with n_objects 0);
     - ``difficulty``: per difficulty {instances, pickup_ok, fulfillable (for some command)};
@@ -207,6 +240,7 @@ def feasibility_record(meas: SceneFeasibility, drawn: Sequence[tuple[Mission, Se
     return {
         "schema_version": FEASIBILITY_SCHEMA_VERSION, "scene": meas.scene_id, "objects_per_command": meas.k,
         "feasibility": mode, "object_design": object_design,
+        "objects_measured": "all" if meas.all_pickups else "examined",
         "objects": {o: _object_entry(p) for o, p in meas.pickups.items()},
         "commands": {c: {"targets": list(m.targets), "instances": list(m.instances),
                          "fulfillable": list(m.fulfillable), "place_sr": m.place_sr, "capacity": m.capacity,

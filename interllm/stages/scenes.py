@@ -33,7 +33,9 @@ def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, Oc
     """The missions of a scene and its ``feasibility.json`` document: the simulator measures which
     instances each command can get (``stages.feasibility``), the draw uses that with
     mission.feasibility=measured (and records it either way)."""
-    meas = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, cfg.mission.objects_per_command, grids)
+    k = cfg.mission.objects_per_command
+    meas = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids,
+                         need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report)
     drawn = draw_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
                           footprint_radius=cfg.sim.footprint_radius, fulfillable=meas.fulfillable())
     design = scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
