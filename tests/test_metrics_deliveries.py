@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 from test_metrics_compute import man, nav, summary
@@ -269,6 +270,9 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
     assert "| planner | missions | delivered | delivered / mission [CI] | m_overall / mission [CI] | position [CI] |" in md
     assert "0 (reference)" in head and "1 (reference)" in head
     assert "9 of 12 slots asked (75%) can be fulfilled at all" in head
+    optimal = re.search(r"The optimal reference delivered (\d+) of the 9 fulfillable slots \((.*?)\)\.", head)
+    assert optimal, head
+    assert (optimal[2] == "every one") == (optimal[1] == "9"), optimal[0]
     claims_part = md.split("## The paper's claims")[1].split("## ")[0]
     assert claims.FEWER in claims_part
     assert "## Sensitivity to γ_obj" in md and "## Candidate diversity" in md

@@ -2,7 +2,7 @@
 cannot tell), and the number of missions a 10% paired difference needs.
 
 Reference planners (``metrics.json`` planners flagged ``"reference": true``: doing nothing, the
-ground-truth optimum) are shown beside the claims but are never claimants nor baselines.
+optimal reference) are shown beside the claims but are never claimants nor baselines.
 
 - ``ordering``: Inter-LLM has the lowest m_overall per mission. Per baseline: holds when the
   paired improvement's CI lies above 0, does not hold when it lies below 0, else cannot tell; judged

@@ -1,5 +1,5 @@
 """Deliveries first: what a planner delivered, beside m_overall, and where it stands
-between doing nothing and the ground-truth optimum.
+between doing nothing and the optimal reference.
 
 m_overall charges an unfilled slot γ_man + γ_obj, so a planner that never acts scores
 n_slots · (γ_man + γ_obj) per mission, and a planner can lower its m_overall by trying less. These
@@ -14,7 +14,7 @@ metrics keep that visible:
   of delivered [objects], with paired bootstrap CIs (missions resampled jointly);
 - **position** = (m_null − m) / (m_null − m_optimal) on the sums of m_overall over the missions all
   three ran, with a bootstrap CI resampling the missions jointly for the three planners: 0 = as
-  good as doing nothing (the ``nothing`` reference), 1 = as good as the ground-truth optimum (the
+  good as doing nothing (the ``nothing`` reference), 1 = as good as the optimal reference (the
   ``optimal`` reference), negative = worse than doing nothing [dimensionless];
 - **m_minus_nothing**: the paired difference m − m_null per mission [s] and whether its CI lies
   below 0 (``below_nothing``: the planner is significantly better than doing nothing);

@@ -1,7 +1,7 @@
 """The report's delivery sections, from metrics.json (``interllm.metrics.deliveries``):
 
 - ``headline_section``: the first table of the report: per planner objects delivered [CI],
-  m_overall [CI], the normalised position between doing nothing (0) and the ground-truth optimum
+  m_overall [CI], the normalised position between doing nothing (0) and the optimal reference
   (1) [CI], whether m_overall lies significantly below doing nothing's, and the execution cost
   per delivered object; the paired differences between the planners; the slots the scenes
   stage measured as deliverable (``feasibility.json``);
@@ -72,9 +72,9 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
           "asking for n, a replacement after a failure counts), in all and per mission. m_overall per mission "
           "(lower is better) charges an unfilled slot γ_man + γ_obj, so a planner can lower it by trying less: read "
           "it beside the deliveries. Position = (m_nothing − m) / (m_nothing − m_optimal) on the sums over the "
-          "missions all three ran: 0 = as good as doing nothing, 1 = as good as the ground-truth optimum "
-          "(cheapest feasible assignment, executed), below 0 = worse than doing nothing. m − m_nothing is the "
-          "paired difference per mission; \"yes\" when its CI lies below 0 (significantly better than doing "
+          "missions all three ran: 0 = as good as doing nothing, 1 = as good as the optimal reference (the "
+          "cheapest assignment over the mission on ground-truth costs, executed), below 0 = worse than doing "
+          "nothing. m − m_nothing is the paired difference per mission; \"yes\" when its CI lies below 0 (significantly better than doing "
           "nothing). Cost per delivered = Σ(γ_nav·cc + t_exe + d) / delivered [s per object]. 95% bootstrap CIs "
           "(paired ones resample the missions jointly). Reference planners are shown, never judged.")
     header = ["planner", "missions", "delivered", "delivered / mission [CI]", "m_overall / mission [CI]"]
@@ -154,6 +154,17 @@ def read_feasibility(scenes_dir: Path, scene_ids: Sequence[str]) -> dict:
     return out
 
 
+def _optimal_share(planners: Mapping[str, Mapping], fulfillable: int) -> str:
+    """" The optimal reference delivered X of the Y fulfillable slots (...)." or ""."""
+    if "optimal" not in planners:
+        return ""
+    d = int(planners["optimal"].get("delivered") or 0)
+    why = ("every one" if d == fulfillable else
+           "the others failed in execution" if d < fulfillable else
+           "more than measured: a target took more than its measured capacity")
+    return f" The optimal reference delivered {d} of the {fulfillable} fulfillable slots ({why})."
+
+
 def feasibility_sentence(scenes_dir: Path, scene_ids: Sequence[str], planners: Mapping[str, Mapping]) -> str:
     """Slots asked vs fulfillable by measurement (or why the report cannot say)."""
     f = read_feasibility(scenes_dir, scene_ids)
@@ -166,7 +177,7 @@ def feasibility_sentence(scenes_dir: Path, scene_ids: Sequence[str], planners: M
                      f"{len(f['found'])} scene(s) and all their missions): {f['fulfillable']} of {f['asked']} slots "
                      f"asked ({share}) can be fulfilled at all"
                      + (f"; the most any planner delivered in these runs is {best[0]} ({plots.label(best[1])})."
-                        if best else "."))
+                        if best else ".") + _optimal_share(planners, f["fulfillable"]))
     if f["missing"]:
         parts.append(f"No feasibility.json under {scenes_dir} for scene(s) {', '.join(f['missing'])}: how many of "
                      f"the slots asked can be fulfilled at all is not measured there (the scenes stage writes it).")

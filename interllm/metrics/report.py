@@ -5,7 +5,7 @@ base64) built from the files the aggregate stage wrote (``metrics.json``, ``per_
 ``build_report`` puts the sections in order; each comes from its module:
 
 - ``delivery_sections``: the headline table (objects delivered, m_overall, the position between
-  doing nothing and the ground-truth optimum, cost per delivered object), the γ_obj sensitivity,
+  doing nothing and the optimal reference, cost per delivered object), the γ_obj sensitivity,
   candidate diversity, the LLM requests per command;
 - ``summary_sections``: the paper's claims with the delivery check, the summary per planner with
   the paired improvement and whether the paper's ordering (Inter-LLM lowest m_overall) holds, the
