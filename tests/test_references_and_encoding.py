@@ -57,7 +57,8 @@ def test_the_assignment_is_the_exhaustive_optimum_on_random_instances():
     for _ in range(25):
         pos = {f"f{i}": float(rng.uniform(0, 20)) for i in range(6)}
         pos["@s"] = float(rng.uniform(0, 20))
-        ds = [Delivery(f"o{i}", f"f{int(rng.integers(4))}", t, float(rng.uniform(1, 30)), float(rng.uniform(1, 30)))
+        source = {i: f"f{int(rng.integers(4))}" for i in range(5)}  # where each object stands
+        ds = [Delivery(f"o{i}", source[i], t, float(rng.uniform(1, 30)), float(rng.uniform(1, 30)))
               for i in range(5) for t in ("f4", "f5") if rng.random() < 0.8]
         chosen, cost = cheapest_assignment("@s", ds, 3, _line_nav(pos))
         assert cost == pytest.approx(_brute("@s", ds, 3, _line_nav(pos)))

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Optional
 
 import numpy as np
@@ -99,17 +99,24 @@ class OptimalPlanner:
         wanted = [(command, max(n_now, 0))] + [(c, ctx.n_objects(c)) for c in later]
         nav = self.nav_costs(ctx)
         slots = [CommandSlots(n, tuple(self.options(c, ctx, nav, _budget(c, wanted)))) for c, n in wanted]
-        mission = cheapest_mission(world.state.at_furniture or START, slots, nav)
+        start = world.state.at_furniture or START
+        sources = {d.source for s in slots for d in s.options}
+        targets = {d.target for s in slots for d in s.options}
+        for goal in sorted(sources):  # every path the assignment may cost, one distance field per goal
+            nav.toward(goal, targets | {start})
+        for goal in sorted(targets):
+            nav.toward(goal, sources)
+        mission = cheapest_mission(start, slots, nav)
         return self.plan_of(ctx, list(mission.plans[0]))
 
-    def options(self, command: Command, ctx: PlannerContext, nav: NavCost, budget: int) -> list[Delivery]:
+    def options(self, command: Command, ctx: PlannerContext, nav: PresumedNav, budget: int) -> list[Delivery]:
         """The (instance, target) options of the ``budget`` instances cheapest to deliver on their
         own (pick + nav(source, target) + place), found best-first (module docstring)."""
         targets = [t for t in command.goal.target_furniture if t in ctx.world.scene.furniture]
         cheapest = self.cheapest_instances(self.instances(command, ctx, targets), targets, ctx, nav, budget)
         return [d for oid in cheapest for d in self.measured_deliveries(oid, targets, ctx)]
 
-    def cheapest_instances(self, instances: list[str], targets: list[str], ctx: PlannerContext, nav: NavCost,
+    def cheapest_instances(self, instances: list[str], targets: list[str], ctx: PlannerContext, nav: PresumedNav,
                            budget: int) -> list[str]:
         """The ``budget`` instances with the least own delivery cost (pick + nav(source, target) +
         place), cheapest first. Entries are refined in order of lower bounds: before the pickup is
@@ -143,6 +150,8 @@ class OptimalPlanner:
                         if (oid, t) not in self.failed:
                             heapq.heappush(heap, (pick[oid] + line(source[oid], t) + floor, _PATH, oid, t))
             elif kind == _PATH:
+                if (source[oid], target) not in nav.memo:
+                    nav.toward(target, (source[o] for o in pick))
                 heapq.heappush(heap, (pick[oid] + nav(source[oid], target) + floor, _PLACE, oid, target))
             else:
                 measured = world.measure_manipulation(Action("place", target, obj=oid))
@@ -195,27 +204,39 @@ class OptimalPlanner:
             return length / ctx.base_speed + length
         return line
 
-    def nav_costs(self, ctx: PlannerContext) -> NavCost:
+    def nav_costs(self, ctx: PlannerContext) -> PresumedNav:
         """nav(from, to): c_nav of the presumed path with no collision (length/base_speed + length)."""
-        world = ctx.world
-        memo: dict[tuple[str, str], float] = {}
-        robot = np.asarray(world.robot_pose, dtype=float)[:2]
-
-        def nav(a: str, b: str) -> float:
-            if a == b:
-                return 0.0
-            if (a, b) not in memo:
-                start = robot if a == START else world.anchor(a)
-                path = world.presumed_path(start, b)
-                length = path_length(path) if path is not None else math.inf
-                memo[(a, b)] = length / ctx.base_speed + length
-            return memo[(a, b)]
-        return nav
+        return PresumedNav(ctx)
 
     def plan_of(self, ctx: PlannerContext, chosen: list[Delivery]) -> Plan:
         """navigate -> pickup -> navigate -> place per delivery; an object in hand is first put on
         the first delivery's target (``planning.plans.assemble_deliveries``)."""
         return assemble_deliveries(ctx.world.scene, ctx.world.state, [(d.obj, d.target) for d in chosen])
+
+
+class PresumedNav:
+    """nav(a, b) [cost units]: c_nav of the presumed path from a's anchor (or the robot, ``START``) to
+    b's, with no collision: length/base_speed + length; math.inf when there is no path. Memoised."""
+
+    def __init__(self, ctx: PlannerContext) -> None:
+        self.world, self.base_speed = ctx.world, ctx.base_speed
+        self.robot = np.asarray(ctx.world.robot_pose, dtype=float)[:2]
+        self.memo: dict[tuple[str, str], float] = {}
+
+    def __call__(self, a: str, b: str) -> float:
+        if a == b:
+            return 0.0
+        if (a, b) not in self.memo:
+            path = self.world.presumed_path(self.robot if a == START else self.world.anchor(a), b)
+            length = path_length(path) if path is not None else math.inf
+            self.memo[(a, b)] = length / self.base_speed + length
+        return self.memo[(a, b)]
+
+    def toward(self, b: str, sources: Iterable[str]) -> None:
+        """nav(a, b) for every a of ``sources`` at once: they share b's distance field, which the
+        path search keeps only for its most recent goals."""
+        for a in sorted(set(sources)):
+            self(a, b)
 
 
 def manipulation_floor(sim: SimConfig) -> float:

@@ -16,8 +16,10 @@ It is exact over the costs it is given, by dynamic programming over the commands
                          (|p|, cost(p)) + best(i + 1, end(p), used ∪ objects(p))
 
 ``used`` is kept only for the objects later commands can use. Commands that share no object
-therefore do not multiply the states. Each command's plans come from a Held-Karp recursion: for
-every (set of objects delivered, last target), only the cheapest order is kept.
+therefore do not multiply the states. Each command's plans come from a Held-Karp recursion, once
+per start: for every (set of objects delivered, last target), only the cheapest order is kept. Of
+them, only the cheapest per outcome that matters to the rest (where it ends, the objects later
+commands lose, how many it delivers) is carried into the recursion.
 ``cheapest_assignment`` is the one-command case.
 """
 
@@ -55,6 +57,7 @@ class MissionPlan:
 
 
 Best = tuple[int, float, tuple]  # (deliveries, cost, per-command plans)
+Plan = tuple[frozenset[str], float, tuple[Delivery, ...]]  # one command's (objects, cost, deliveries)
 
 
 def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost) -> MissionPlan:
@@ -68,16 +71,18 @@ def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost)
     for i in range(len(commands) - 1, -1, -1):  # objects command i or a later one can use
         later[i] = later[i + 1] | frozenset(by_obj[i])
     memo: dict[tuple[int, str, frozenset[str]], Best] = {}
+    plans: dict[tuple[int, str], list[Plan]] = {}
 
     def best(i: int, loc: str, used: frozenset[str]) -> Best:
         if i == len(commands):
             return 0, 0.0, ()
         key = (i, loc, used)
         if key not in memo:
+            if (i, loc) not in plans:  # independent of ``used``: filtered below
+                plans[(i, loc)] = _command_plans(loc, by_obj[i], commands[i].n, nav)
             found: Best = (-1, math.inf, ())
-            for objs, cost, seq in _command_plans(loc, by_obj[i], commands[i].n, used, nav):
-                end = seq[-1].target if seq else loc
-                rest = best(i + 1, end, (used | objs) & later[i + 1])
+            for (end, nxt, _), (cost, seq) in _cheapest_per_outcome(plans[(i, loc)], loc, used, later[i + 1]).items():
+                rest = best(i + 1, end, nxt)
                 cand = (len(seq) + rest[0], cost + rest[1], (seq,) + rest[2])
                 if cand[0] > found[0] or (cand[0] == found[0] and cand[1] < found[1]):
                     found = cand
@@ -98,35 +103,47 @@ def cheapest_assignment(start: str, deliveries: Sequence[Delivery], n: int, nav:
 def _options_by_object(options: Sequence[Delivery]) -> dict[str, tuple[Delivery, ...]]:
     out: dict[str, list[Delivery]] = {}
     for d in sorted(options, key=lambda d: (d.obj, d.target)):
+        if out.get(d.obj) and out[d.obj][0].source != d.source:
+            raise ValueError(f"object {d.obj!r} is delivered from {out[d.obj][0].source!r} and {d.source!r}: "
+                             "an object's deliveries start where it stands, one source")
         out.setdefault(d.obj, []).append(d)
     return {o: tuple(ds) for o, ds in out.items()}
 
 
-def _command_plans(loc: str, by_obj: dict[str, tuple[Delivery, ...]], n: int, used: frozenset[str],
-                   nav: NavCost) -> list[tuple[frozenset[str], float, tuple[Delivery, ...]]]:
+def _cheapest_per_outcome(plans: list[Plan], loc: str, used: frozenset[str], later: frozenset[str]
+                          ) -> dict[tuple[str, frozenset[str], int], tuple[float, tuple[Delivery, ...]]]:
+    """The plans that avoid ``used``, the cheapest per outcome that matters to the rest of the
+    mission: (where it ends, the objects later commands can no longer take, deliveries)."""
+    out: dict[tuple[str, frozenset[str], int], tuple[float, tuple[Delivery, ...]]] = {}
+    for objs, cost, seq in plans:
+        if objs & used:
+            continue
+        key = (seq[-1].target if seq else loc, (used | objs) & later, len(seq))
+        if key not in out or cost < out[key][0]:
+            out[key] = (cost, seq)
+    return out
+
+
+def _command_plans(loc: str, by_obj: dict[str, tuple[Delivery, ...]], n: int, nav: NavCost) -> list[Plan]:
     """(object set, cost, ordered plan) of one command from ``loc``: the cheapest order per (object
     set, last target), of every size up to ``n`` (the empty plan included). Plans that end at
     different targets are all kept: the next command starts there."""
     Layer = dict[tuple[frozenset[str], str], tuple[float, tuple[Delivery, ...]]]
     layer: Layer = {(frozenset(), loc): (0.0, ())}
-    found = [(frozenset(), 0.0, ())]
-    free = [o for o in by_obj if o not in used]
+    found: list[Plan] = [(frozenset(), 0.0, ())]
+    onward = {o: [(d, nav(d.source, d.target)) for d in ds] for o, ds in by_obj.items()}
     for _ in range(max(n, 0)):
         grown: Layer = {}
         for (objs, end), (cost, seq) in layer.items():
-            for o in free:
+            for o in by_obj:
                 if o in objs:
                     continue
-                for d in by_obj[o]:
-                    c = cost + _step(end, d, nav)
+                reach = nav(end, by_obj[o][0].source)  # an object's deliveries share its source
+                for d, carry in onward[o]:
+                    c = cost + (reach + d.pick + carry + d.place)  # _step's sum, in its order
                     key = (objs | {o}, d.target)
                     if math.isfinite(c) and (key not in grown or c < grown[key][0]):
                         grown[key] = (c, seq + (d,))
         found += [(objs, cost, seq) for (objs, _end), (cost, seq) in grown.items()]
         layer = grown
     return found
-
-
-def _step(loc: str, d: Delivery, nav: NavCost) -> float:
-    """Cost of one delivery from ``loc``."""
-    return nav(loc, d.source) + d.pick + nav(d.source, d.target) + d.place
