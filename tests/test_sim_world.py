@@ -192,3 +192,18 @@ def test_two_runs_identical_and_records_round_trip():
     assert r.to_record() == a[2]
     assert a[0]["collisions"] == 1
     assert [x["t_start"] for x in a] == pytest.approx(np.cumsum([0] + [x["time"] for x in a[:-1]]).tolist())
+
+
+def test_the_map_version_names_the_map_paths_are_searched_on(world_open):
+    """0 on the initial map; a change gives a number no earlier map had, so a planner that keeps
+    path costs per version never reuses one from another map."""
+    w = world_open
+    assert w.map_version == 0
+    seen = {0}
+    for _ in range(2):
+        w.belief.block_cells((2.0, 1.0), 0.3)
+        assert w.map_version not in seen
+        seen.add(w.map_version)
+        assert w.belief.block_cells((2.0, 1.0), 0.3) == 0 and w.map_version in seen  # nothing changed
+        w.belief.reset()
+        assert w.map_version == 0

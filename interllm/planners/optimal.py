@@ -66,6 +66,7 @@ class OptimalPlanner:
 
     def __init__(self) -> None:
         self.failed: set[tuple[str, str]] = set()  # (object, furniture) whose pickup or place failed
+        self._nav: Optional[PresumedNav] = None  # path costs on the current map, across searches
 
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
         ctx.start_command()
@@ -205,8 +206,14 @@ class OptimalPlanner:
         return line
 
     def nav_costs(self, ctx: PlannerContext) -> PresumedNav:
-        """nav(from, to): c_nav of the presumed path with no collision (length/base_speed + length)."""
-        return PresumedNav(ctx)
+        """nav(from, to): c_nav of the presumed path with no collision (length/base_speed + length).
+        Kept from the last search while the robot's map is the same (paths from the robot's pose
+        are dropped: it has moved)."""
+        if self._nav is None or self._nav.map_version != ctx.world.map_version:
+            self._nav = PresumedNav(ctx)
+        else:
+            self._nav.moved_to(ctx.world.robot_pose)
+        return self._nav
 
     def plan_of(self, ctx: PlannerContext, chosen: list[Delivery]) -> Plan:
         """navigate -> pickup -> navigate -> place per delivery; an object in hand is first put on
@@ -220,8 +227,14 @@ class PresumedNav:
 
     def __init__(self, ctx: PlannerContext) -> None:
         self.world, self.base_speed = ctx.world, ctx.base_speed
+        self.map_version = ctx.world.map_version
         self.robot = np.asarray(ctx.world.robot_pose, dtype=float)[:2]
         self.memo: dict[tuple[str, str], float] = {}
+
+    def moved_to(self, pose) -> None:
+        """The robot is at ``pose`` now: forget the paths from where it was."""
+        self.robot = np.asarray(pose, dtype=float)[:2]
+        self.memo = {k: v for k, v in self.memo.items() if k[0] != START}
 
     def __call__(self, a: str, b: str) -> float:
         if a == b:

@@ -36,3 +36,7 @@ class WorldView(Protocol):
 
     def presumed_path(self, start_xy, furniture_id: str) -> Optional[np.ndarray]:
         """The path [N, 2] [m] the robot's map presumes from ``start_xy`` to the furniture, or None."""
+
+    @property
+    def map_version(self) -> int:
+        """Which map ``presumed_path`` searches: equal numbers, equal paths (0: the initial map)."""

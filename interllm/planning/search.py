@@ -131,6 +131,8 @@ class GridSearch:
     def refresh(self) -> None:
         """Rebuild the graph from ``grid.occupied`` and drop every cached field."""
         self._occ = self.grid.occupied.copy()
+        occ = self.grid.occupied
+        self._read_only = occ if not occ.flags.writeable else None  # skips the comparison per query
         self._csr = grid_csr(self._occ, self.grid.resolution, *self.clearance)
         self._fields.clear()
         if self._occ.all():
@@ -140,7 +142,10 @@ class GridSearch:
             self._near_free = ind  # [2, rows, cols] nearest free cell of each cell
 
     def _check_fresh(self) -> None:
-        if self.grid.occupied.shape != self._occ.shape or not np.array_equal(self.grid.occupied, self._occ):
+        occ = self.grid.occupied
+        if occ is self._read_only:  # a read-only map cannot have changed since refresh()
+            return
+        if occ.shape != self._occ.shape or not np.array_equal(occ, self._occ):
             self.refresh()
 
     # ---- cells -------------------------------------------------------------------------

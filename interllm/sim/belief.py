@@ -47,9 +47,13 @@ class BeliefMap:
         self.clearance = (float(clearance[0]), float(clearance[1]))
         self.presumed = presumed.copy()
         # the initial map's search graph and distance fields, kept for every mission of the world
-        self._prior = GridSearch(presumed.copy(), clearance_cost=self.clearance[0], clearance_band=self.clearance[1])
+        prior = presumed.copy()
+        prior.occupied.setflags(write=False)  # never changes: its search skips the per-query map check
+        self._prior = GridSearch(prior, clearance_cost=self.clearance[0], clearance_band=self.clearance[1])
         self._learned_search: Optional[GridSearch] = None
         self.learned = 0  # cells blocked since the last reset
+        self.version = 0  # 0: the initial map; else a number no other map of this belief had
+        self._versions = 0
 
     @property
     def search(self) -> GridSearch:
@@ -67,11 +71,17 @@ class BeliefMap:
         self.presumed = self.initial.copy()
         self._learned_search = None
         self.learned = 0
+        self.version = 0
 
     def forget(self) -> None:
         """Forget the cells collisions blocked (cheap when there are none)."""
         if self.learned:
             self.reset()
+
+    def _changed(self, cells: int) -> None:
+        if cells:
+            self._versions += 1
+            self.version = self._versions
 
     def anchor(self, furniture_id: str) -> tuple[float, float]:
         """Goal point [m] for navigating to a furniture: the free cell of the initial presumed
@@ -124,6 +134,7 @@ class BeliefMap:
         g.occupied[r0:r1, c0:c1] |= m
         changed = int(g.occupied[r0:r1, c0:c1].sum()) - before
         self.learned += changed
+        self._changed(changed)
         return changed
 
     def block_box(self, x0: float, y0: float, x1: float, y1: float) -> int:
@@ -139,4 +150,5 @@ class BeliefMap:
         g.occupied[r0:r1 + 1, c0:c1 + 1] = True
         changed = int(g.occupied[r0:r1 + 1, c0:c1 + 1].sum()) - before
         self.learned += changed
+        self._changed(changed)
         return changed

@@ -77,6 +77,12 @@ class World:
         self.physics.reset(self.scene, tuple(mission.start))
         return self.state
 
+    @property
+    def map_version(self) -> int:
+        """Which presumed map ``presumed_path`` searches: 0 the initial one, else a number no other
+        map of this world had (``BeliefMap.version``)."""
+        return self.belief.version
+
     def anchor(self, furniture_id: str) -> tuple[float, float]:
         """The goal point [m] of a navigation to ``furniture_id`` (``BeliefMap.anchor``)."""
         return self.belief.anchor(furniture_id)

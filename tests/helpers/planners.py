@@ -64,6 +64,7 @@ class SymbolicWorld:
         self.clock = 0.0
         self.state = State(None, None, None)
         self.robot_pose = (0.0, 0.0, 0.0)
+        self.map_version = 0  # straight-line paths: the map never changes
         self.executed: list[str] = []
 
     def reset(self, mission: Mission) -> State:
