@@ -80,6 +80,12 @@ def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost)
         if key not in memo:
             if (i, loc) not in plans:  # independent of ``used``: filtered below
                 plans[(i, loc)] = _command_plans(loc, by_obj[i], commands[i].n, nav)
+                if i == len(commands) - 1:  # the last: only its own (deliveries, cost) matter
+                    plans[(i, loc)].sort(key=lambda p: (-len(p[2]), p[1]))
+            if i == len(commands) - 1:
+                _, cost, seq = next(p for p in plans[(i, loc)] if not p[0] & used)  # the empty plan at worst
+                memo[key] = (len(seq), cost, (seq,))
+                return memo[key]
             found: Best = (-1, math.inf, ())
             for (end, nxt, _), (cost, seq) in _cheapest_per_outcome(plans[(i, loc)], loc, used, later[i + 1]).items():
                 rest = best(i + 1, end, nxt)
@@ -139,10 +145,11 @@ def _command_plans(loc: str, by_obj: dict[str, tuple[Delivery, ...]], n: int, na
                 if o in objs:
                     continue
                 reach = nav(end, by_obj[o][0].source)  # an object's deliveries share its source
+                with_o = objs | {o}
                 for d, carry in onward[o]:
-                    c = cost + (reach + d.pick + carry + d.place)  # _step's sum, in its order
-                    key = (objs | {o}, d.target)
-                    if math.isfinite(c) and (key not in grown or c < grown[key][0]):
+                    c = cost + (reach + d.pick + carry + d.place)  # a delivery's cost, summed in this order
+                    key = (with_o, d.target)
+                    if c < math.inf and (key not in grown or c < grown[key][0]):
                         grown[key] = (c, seq + (d,))
         found += [(objs, cost, seq) for (objs, _end), (cost, seq) in grown.items()]
         layer = grown
