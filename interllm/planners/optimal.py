@@ -60,7 +60,8 @@ MAX_TARGETS = 8  # accepting targets per instance searched, the nearest to its f
 # experiment's commands name at most 8, so the search is exact over targets there)
 
 
-@PLANNERS.register("optimal", label="Optimal (reference)", color="k", order=4, reference=True)
+@PLANNERS.register("optimal", label="Optimal (reference)", color="k", order=4, reference=True,
+                   long_running=True)  # its MuJoCo measurements: the missions stage starts it first
 class OptimalPlanner:
     name = "optimal"
 

@@ -25,6 +25,7 @@ from interllm.io import check_name, child_path, ensure_dir, read_json, write_jso
 from interllm.lifetime import die_with_parent
 from interllm.llm.health import check_failure_share
 from interllm.metrics.compute import Gammas, MissionRows
+from interllm.planners import PLANNERS
 from interllm.planners.runner import run_mission
 from interllm.progress import progress
 from interllm.record.recorder import McapRecorder
@@ -171,6 +172,13 @@ def _run_in_process(cfg: ExperimentConfig, jobs: list[Job], *, scenes_dir: Path,
         worker.client.close()
 
 
+def submission_order(jobs: list[Job]) -> list[Job]:
+    """The jobs of planners registered with ``long_running=True`` first, so the workers run the
+    others beside them instead of leaving one alone at the end (the outputs do not depend on the
+    order: the call logs are merged in ``jobs`` order)."""
+    return sorted(jobs, key=lambda j: not (j[0] in PLANNERS and PLANNERS.entry(j[0]).meta.get("long_running", False)))
+
+
 def _run_in_workers(cfg: ExperimentConfig, jobs: list[Job], *, n_workers: int, scenes_dir: Path, candidates_dir: Path,
                     out_dir: Path, prov: dict, call_log: Path) -> None:
     # each worker's model gets its share of the LLM threads (llama.cpp's results do not depend on
@@ -183,7 +191,7 @@ def _run_in_workers(cfg: ExperimentConfig, jobs: list[Job], *, n_workers: int, s
         ids.put(part)
     with cf.ProcessPoolExecutor(n_workers, mp_context=ctx, initializer=_init_worker,
                                 initargs=(os.getpid(), ids, wcfg, scenes_dir, candidates_dir, out_dir, prov)) as pool:
-        futures = {pool.submit(_run_in_worker, job): job for job in jobs}
+        futures = {pool.submit(_run_in_worker, job): job for job in submission_order(jobs)}
         try:
             wait_for_jobs(futures, n_workers)
         except BaseException:
