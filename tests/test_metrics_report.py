@@ -113,10 +113,11 @@ def test_metrics_json_byte_identical(experiment):
     assert len(read_csv(root / "m1" / "per_object.csv")) == 3 * 2 * 3 * 9
 
 
-def test_report_builds(experiment):
+def test_report_builds(experiment, monkeypatch):
     from interllm.metrics.report import build_report
 
     root, cfg = experiment
+    monkeypatch.chdir(root)  # as a DVC stage runs at the project root
     mdir = root / "m1"
     write_metrics(root / "runs", root / "scenes", cfg, mdir)
     write_metrics(root / "runs", root / "scenes", cfg, root / "t02", temperature=0.2)
@@ -129,6 +130,10 @@ def test_report_builds(experiment):
                  "183.0", "interllm replay", "m000.mcap", "Table II", "73%", "M=3"):
         assert text in md, text
     assert "The paper's ordering" in md and " holds on our runs" in md  # inter_llm is built cheapest
+    # the replay command names the log relative to where the report was made: every checkout
+    # writes the same report (its hash is in dvc.lock)
+    replay = [line for line in md.splitlines() if line.startswith("interllm replay ")]
+    assert replay and replay[0].startswith("interllm replay runs/"), replay
     assert "<th colspan='3'>command_1</th>" in ht
     n_img = ht.count("src='data:image/png;base64,")
     assert n_img >= 6 and n_img == md.count("![")

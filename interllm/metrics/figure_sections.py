@@ -86,6 +86,15 @@ def run_logs_section(doc: Doc, runs_dir: str | os.PathLike, out_dir: Path) -> No
     if mcaps:
         doc.p("Replay any run in rerun with `interllm replay <file>`, or open it in Foxglove Studio:")
         doc.links([(Path(m).relative_to(runs_dir).as_posix(), rel(m, out_dir)) for m in mcaps])
-        doc.code(f"interllm replay {Path(mcaps[0]).as_posix()}")
+        doc.code(f"interllm replay {_from_here(Path(mcaps[0]))}")
     else:
         doc.p(f"No .mcap run logs found under {runs_dir}.")
+
+
+def _from_here(path: Path) -> str:
+    """``path`` relative to the working directory when it lies below it (the report then reads the
+    same in every checkout: a DVC stage runs at the project root), else as given."""
+    try:
+        return path.resolve().relative_to(Path.cwd().resolve()).as_posix()
+    except ValueError:
+        return path.as_posix()
