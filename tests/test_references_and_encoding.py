@@ -37,19 +37,10 @@ def _line_nav(pos: dict):
 
 
 def _brute(start, deliveries, n, nav):
-    best = (math.inf, None)
-    objs = sorted({d.obj for d in deliveries})
-    for k in range(min(n, len(objs)), -1, -1):
-        for perm in itertools.permutations(objs, k):
-            for choice in itertools.product(*[[d for d in deliveries if d.obj == o] for o in perm]):
-                loc, c = start, 0.0
-                for d in choice:
-                    c += nav(loc, d.source) + d.pick + nav(d.source, d.target) + d.place
-                    loc = d.target
-                best = min(best, (c, choice), key=lambda x: x[0])
-        if best[1] is not None:
-            return best[0]
-    return 0.0
+    """The least cost among the ordered plans with the most deliveries, by enumerating them all."""
+    plans = list(_command_plans_brute(start, deliveries, n, set(), nav))
+    most = max(k for *_, k in plans)
+    return min(c for *_, c, k in plans if k == most) if most else 0.0
 
 
 def test_the_assignment_is_the_exhaustive_optimum_on_random_instances():
