@@ -74,7 +74,7 @@ def test_a_failing_run_names_the_job_and_keeps_the_call_log(inputs, monkeypatch,
     for jobs in (1, 2):
         monkeypatch.setattr(cfg, "jobs", jobs)
         out = tmp_path / f"runs{jobs}"
-        with pytest.raises(RuntimeError, match=r"planner '(inter_llm|sayplan|moma_llm)' on scene 'paper_s0000' "
+        with pytest.raises(RuntimeError, match=r"planner '(inter_llm|sayplan|moma_llm|nothing|optimal)' on scene 'paper_s0000' "
                                                r"mission 'm001' failed: StageError: .*has no candidates for mission .*rerun the candidates stage"):
             run_missions(cfg, root / "scenes", root / "candidates", out)
         assert (out / "llm_calls.jsonl").is_file()  # merged even after the failure
