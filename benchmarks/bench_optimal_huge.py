@@ -27,7 +27,7 @@ from interllm.scene.missions import generate_missions
 from interllm.sim.world import World
 
 
-def every_instance(planner: OptimalPlanner, command, ctx, nav) -> list:
+def every_instance(planner: OptimalPlanner, command, ctx) -> list:
     """The alternative: every instance's pickup, then places on its nearest accepting targets."""
     targets = [t for t in command.goal.target_furniture if t in ctx.world.scene.furniture]
     return [d for oid in planner.instances(command, ctx, targets)
@@ -49,7 +49,7 @@ def main(alternative: bool) -> None:
         nav = planner.nav_costs(ctx)
         t = time.perf_counter()
         if alternative:
-            options = every_instance(planner, command, ctx, nav)
+            options = every_instance(planner, command, ctx)
         else:
             options = planner.options(command, ctx, nav, MAX_OBJECTS)
         instances = sum(o.category in command.goal.categories for o in scene.objects.values())
