@@ -149,3 +149,36 @@ def test_unknown_planner_and_missing_candidates_raise():
     with pytest.raises(ValueError, match="candidates stage"):
         run_mission("sayplan", SymbolicWorld(scene, ExperimentConfig().sim), mission, {"breakfast": []},
                     FakeScoreClient(), ExperimentConfig())
+
+
+def test_moma_counts_no_replan_when_a_failure_comes_after_the_command_is_fulfilled():
+    """A plan that goes on after the command's objects are delivered and fails there: nothing is
+    left to replan, so no replan is asked for and none is counted."""
+    cfg = ExperimentConfig()
+    cfg.llm.proposal_mode = "generate"
+    steps = [("navigate", "counter_1", None), ("pickup", "counter_1", "apple_1"),
+             ("navigate", "dining_table_1", None), ("place", "dining_table_1", "apple_1"),
+             ("navigate", "counter_1", None), ("pickup", "counter_1", "banana_1"),
+             ("navigate", "dining_table_1", None), ("place", "dining_table_1", "banana_1"),
+             ("navigate", "desk_1", None), ("pickup", "desk_1", "mug_1"),
+             ("navigate", "dining_table_1", None), ("place", "dining_table_1", "mug_1")]
+    rooms = {"counter_1": "kitchen_1", "dining_table_1": "kitchen_1", "desk_1": "living_room_1"}
+    plan = {"actions": [{"action": k, "furniture": f, "room": rooms[f], **({"object": o} if o else {})}
+                        for k, f, o in steps]}
+    rec, _ = run_tiny_mission("moma_llm", cfg, hard=("mug_1",), client=ScriptedClient(plan))
+    c = rec["commands"][0]
+    assert [a for a in c["actions"] if not a["success"]], "the mug's pickup was to fail"
+    assert c["summary"]["replans"] == 0
+
+
+@pytest.mark.parametrize("shared, first_source", [(True, "initial"), (False, "reproposed")])
+def test_inter_llm_labels_its_candidates_by_where_they_come_from(shared, first_source):
+    """Only the shared initial candidates are "initial"; a first command without them is proposed
+    from the current state like every later one."""
+    cfg, client = ExperimentConfig(), FakeScoreClient()
+    scene, mission = tiny_scene(), tiny_mission()
+    cands = generate_initial_candidates(scene, mission, client, cfg) if shared else \
+        {c.id: [] for c in mission.commands}
+    log = ListRecorder()
+    run_tiny_mission("inter_llm", cfg, client=client, cands=cands, recorder=log)
+    assert [e[2]["source"] for e in log.events if e[0] == "/planner/candidates"] == [first_source, "reproposed"]

@@ -7,19 +7,17 @@ from helpers.planners import FakeScoreClient
 
 from interllm.config import ExperimentConfig, MissionConfig
 from interllm.core.actions import State, plan_from_list
+from interllm.llm import make_client
 from interllm.metrics.compute import Gammas, mission_rows
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
 from interllm.planning.feasibility import check_plan
 from interllm.record import McapRecorder, read_run
+from interllm.scene import catalog, generator
+from interllm.scene import missions as missions_mod
 from interllm.sim.kinematics import RobotKinematics
 from interllm.sim.world import World
 from interllm.stages.missions import metric_rows_logger
-
-pytest.importorskip("mujoco")
-generator = pytest.importorskip("interllm.scene.generator")
-missions_mod = pytest.importorskip("interllm.scene.missions")
-catalog = pytest.importorskip("interllm.scene.catalog")
 
 
 @pytest.fixture(scope="module")
@@ -56,13 +54,12 @@ def test_each_planner_on_the_real_world(tiny, name):
 
 @pytest.mark.embedded
 def test_inter_llm_with_the_real_embedded_model_on_one_command(tiny, tmp_path):
-    llm = pytest.importorskip("interllm.llm")
     scene, mission = tiny
     mission = type(mission)(mission.id, mission.scene_id, mission.start, mission.start_furniture,
                             mission.commands[:1])
     cfg = ExperimentConfig()
     cfg.llm.cache_dir = str(tmp_path / "cache")
-    client = llm.make_client(cfg.llm)
+    client = make_client(cfg.llm)
     cands = generate_initial_candidates(scene, mission, client, cfg)
     cmd = mission.commands[0]
     assert len(cands[cmd.id]) == cfg.planner.M

@@ -38,3 +38,17 @@ def test_a_run_outside_dvc_records_its_commit(tmp_path, monkeypatch):
     first, second = _provenance_at_two_commits(tmp_path, monkeypatch, record_commit=True)
     assert first["git_commit"] != second["git_commit"]
     assert len(first["git_commit"]) == 40
+
+
+def test_a_model_that_cannot_be_identified_fails_the_run_and_names_the_key(tmp_path):
+    """Not recorded as "unavailable": the LLM cache is keyed by the same hash, so such a run is not
+    reproducible."""
+    import pytest
+
+    from interllm.llm.model_files import ModelFileError
+    from interllm.stages.provenance import model_sha256
+
+    cfg = to_config(compose([f"llm.model={tmp_path / 'missing.gguf'}"]))
+    with pytest.raises(ModelFileError, match="llm.model"):
+        model_sha256(cfg)
+    assert len(model_sha256(to_config(compose([])))) == 64  # the packaged GGUF's sha256

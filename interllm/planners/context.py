@@ -54,6 +54,23 @@ class LLMTally:
 
 
 @dataclass
+class LLMCallObserver:
+    """The client's observer for one mission run: counts each call in the current command's tally
+    and logs it on the run log's /llm/calls at the world's simulated time [s]."""
+
+    world: WorldView
+    recorder: Any  # interllm.record.api.Recorder
+    tally: LLMTally = field(default_factory=LLMTally)
+
+    def __call__(self, request: Any, response: Any) -> None:
+        self.tally.calls += 1
+        self.tally.tokens_in += int(response.tokens_in)
+        if isinstance(response, LLMResponse):
+            self.tally.tokens_out += int(response.tokens_out)
+        self.recorder.event(LLM_TOPIC, float(self.world.clock), llm_call_record(request, response))
+
+
+@dataclass
 class PlannerContext:
     world: WorldView
     proposer: Proposer
@@ -68,19 +85,17 @@ class PlannerContext:
     initial_candidates: dict[str, list[Plan]] = field(default_factory=dict)  # command id -> M plans
     delivered: set[str] = field(default_factory=set)  # objects delivered by earlier commands
     command_delivered: list[str] = field(default_factory=list)  # delivered by the current command
-    tally: LLMTally = field(default_factory=LLMTally)
+    llm_calls: LLMCallObserver | None = None  # the observer of ``proposer``'s client (None: not counted)
 
     # ---- the LLM calls of the current command ---------------------------------------------
-    def on_llm_call(self, request: Any, response: Any) -> None:
-        """Observer of the client: count the call and log it on the run log's /llm/calls."""
-        self.tally.calls += 1
-        self.tally.tokens_in += int(response.tokens_in)
-        if isinstance(response, LLMResponse):
-            self.tally.tokens_out += int(response.tokens_out)
-        self.recorder.event(LLM_TOPIC, float(self.world.clock), llm_call_record(request, response))
+    @property
+    def tally(self) -> LLMTally:
+        """The current command's LLM calls and tokens (zero when the client is not observed)."""
+        return self.llm_calls.tally if self.llm_calls is not None else LLMTally()
 
     def start_command(self) -> None:
-        self.tally = LLMTally()
+        if self.llm_calls is not None:
+            self.llm_calls.tally = LLMTally()
 
     # ---- labels, seeds, logging ---------------------------------------------------------
     def labels(self, command: Command) -> tuple[tuple[str, str], ...]:

@@ -50,10 +50,12 @@ class InterLLMPlanner:
         self._n_commands = 0
 
     # ---- proposals ----------------------------------------------------------------------
-    def propose(self, command: Command, ctx: PlannerContext) -> list[Plan]:
+    def propose(self, command: Command, ctx: PlannerContext) -> tuple[list[Plan], str]:
+        """The command's candidates and where they come from: the shared initial candidates
+        (first command) or proposed now from the current state and the known costs."""
         if self._n_commands == 0 and ctx.candidates_for(command):
-            return ctx.candidates_for(command)
-        return ctx.propose_from_state(command, known=ctx.memory)
+            return ctx.candidates_for(command), "initial"
+        return ctx.propose_from_state(command, known=ctx.memory), "reproposed"
 
     # ---- estimation ---------------------------------------------------------------------
     def estimate(self, plan: Plan, command: Command, ctx: PlannerContext, paths: dict, labels: dict,
@@ -113,11 +115,10 @@ class InterLLMPlanner:
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
         ctx.start_command()
         result = new_result(command)
-        proposed = self.propose(command, ctx)
+        proposed, source = self.propose(command, ctx)
         self._n_commands += 1
         ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
-                                                   "source": "initial" if self._n_commands == 1
-                                                   else "reproposed"})
+                                                   "source": source})
         feasible: list[Plan] = []
         req = ctx.request(command, known=ctx.memory)
         for j, plan in enumerate(proposed):

@@ -49,12 +49,12 @@ class MoMaLLMPlanner:
                 failed_objects.add(action.obj)
             else:  # a navigate to the pickup furniture failed: its objects are out of reach
                 failed_objects.update(o.id for o in world.scene.objects_on(action.furniture))
-            result.replans += 1
             remaining = max(n_total - len(delivered), 0)
+            if remaining == 0:  # nothing left to deliver: no replan is asked for, none is counted
+                return None
+            result.replans += 1
             avoid = tuple(sorted(set(delivered) | failed_objects))  # ctx.request adds earlier deliveries
             executed = [str(r.action) + (" ok" if r.success else " FAILED") for r in result.actions]
-            if remaining == 0:
-                return None
             # keep the target of the plan being executed unless that target failed
             targets = [a.furniture for a in result.selected_plan if a.kind == "place"]
             keep = targets[-1] if targets and targets[-1] not in failed_targets else None

@@ -10,7 +10,7 @@ from interllm.config import ExperimentConfig
 from interllm.core.records import CommandRecord, GoalRecord, MissionRecord
 from interllm.planners.base import PLANNERS
 from interllm.planners.candidates import candidates_from_json
-from interllm.planners.context import PlannerContext
+from interllm.planners.context import LLMCallObserver, PlannerContext
 from interllm.planners.world_view import WorldView
 from interllm.planning.memory import KnownCosts
 from interllm.planning.proposers import make_proposer
@@ -39,13 +39,14 @@ def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_c
     world.reset(mission)
     if mission.scene_id != world.scene.id:
         raise ValueError(f"mission {mission.id!r} belongs to scene {mission.scene_id!r}, not {world.scene.id!r}")
-    ctx = PlannerContext(world=world, proposer=None, memory=KnownCosts(), recorder=recorder,  # type: ignore[arg-type]
-                         cfg=cfg.planner, mission=mission, planner=planner_name, seed_base=cfg.llm.seed,
-                         base_speed=cfg.sim.base_speed, gamma_obj=cfg.metrics.gamma_obj,
-                         initial_candidates=candidates_from_json(initial_candidates))
+    llm_calls = LLMCallObserver(world, recorder)
     observed = client.with_context(planner=planner_name, scene=world.scene.id, mission=mission.id) \
-        .with_observer(ctx.on_llm_call)
-    ctx.proposer = make_proposer(observed, cfg.llm, ground_truth=world)
+        .with_observer(llm_calls)
+    ctx = PlannerContext(world=world, proposer=make_proposer(observed, cfg.llm, ground_truth=world),
+                         memory=KnownCosts(), recorder=recorder, cfg=cfg.planner, mission=mission,
+                         planner=planner_name, seed_base=cfg.llm.seed, base_speed=cfg.sim.base_speed,
+                         gamma_obj=cfg.metrics.gamma_obj, llm_calls=llm_calls,
+                         initial_candidates=candidates_from_json(initial_candidates))
     record = MissionRecord(planner=planner_name, scene_id=world.scene.id, mission_id=mission.id)
     for cmd in mission.commands:
         recorder.log(float(world.clock), "info", f"{planner_name} ({cfg.llm.source_label}): command {cmd.id}: {cmd.text}")

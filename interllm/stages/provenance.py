@@ -39,13 +39,12 @@ def package_versions() -> dict[str, str]:
 
 
 def model_sha256(cfg: ExperimentConfig) -> str:
-    """sha256 of the embedded GGUF (or the server's model name); never loads the model."""
+    """sha256 of the embedded GGUF (or the server's model name); never loads the model. A GGUF that
+    cannot be found or read raises ``ModelFileError`` naming ``llm.model``: a run whose model cannot
+    be identified is not reproducible (its LLM cache is keyed by the same hash)."""
     if cfg.llm.backend != "embedded":
         return f"{cfg.llm.backend}:{cfg.llm.model}"
-    try:
-        return EmbeddedBackend(cfg.llm).model_id()
-    except Exception as e:  # noqa: BLE001 - provenance must never fail a run
-        return f"unavailable ({type(e).__name__}: {e})"
+    return EmbeddedBackend(cfg.llm).model_id()
 
 
 # What a DVC-tracked run records instead of the commit: its outputs are hashed into dvc.lock, and a
