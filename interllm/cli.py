@@ -290,9 +290,10 @@ def _llm_probe(args) -> int:
 def _main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "replay":
+        from interllm.metrics.compute import run_log_object_rows  # lazy: a command loads only its own code
         from interllm.record.replay import replay_main  # lazy: a command loads only its own code
 
-        return replay_main(argv[1:])
+        return replay_main(argv[1:], metric_rows=run_log_object_rows)
     ap = argparse.ArgumentParser(prog="interllm", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)

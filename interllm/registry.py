@@ -12,6 +12,7 @@ where each implementation is defined: one place per name.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -28,15 +29,24 @@ class Entry:
 
 
 class Registry:
-    """Names -> factories of one kind, in registration order.
+    """Names -> factories of one kind.
 
     kind: what is registered ("planner"); config_key: the config key whose values are these names
     (for the error message).
     """
 
-    def __init__(self, kind: str, config_key: str) -> None:
-        self.kind, self.config_key = kind, config_key
+    def __init__(self, kind: str, config_key: str, builtins: tuple[str, ...] = ()) -> None:
+        """builtins: the modules that register the built-in implementations, imported on the first
+        lookup (so importing the package that holds the registry loads none of them)."""
+        self.kind, self.config_key, self.builtins = kind, config_key, tuple(builtins)
         self._entries: dict[str, Entry] = {}
+        self._loaded = not self.builtins
+
+    def _load_builtins(self) -> None:
+        if not self._loaded:
+            self._loaded = True  # first: a built-in module may look itself up while it registers
+            for module in self.builtins:
+                importlib.import_module(module)
 
     def register(self, name: str, label: str | None = None, **meta: Any) -> Callable[[Any], Any]:
         """Decorator registering a class or factory under ``name`` (once per name)."""
@@ -53,9 +63,12 @@ class Registry:
         self._entries.pop(name, None)
 
     def names(self) -> list[str]:
-        return list(self._entries)
+        """The registered names, sorted (registration order depends on which module was imported first)."""
+        self._load_builtins()
+        return sorted(self._entries)
 
     def entry(self, name: str) -> Entry:
+        self._load_builtins()
         try:
             return self._entries[name]
         except KeyError:
@@ -67,8 +80,10 @@ class Registry:
 
     def label(self, name: str) -> str:
         """The display label of ``name`` (the name itself if it is not registered)."""
+        self._load_builtins()
         e = self._entries.get(name)
         return e.label if e is not None else name
 
     def __contains__(self, name: object) -> bool:
+        self._load_builtins()
         return name in self._entries

@@ -21,7 +21,6 @@ from interllm.config import ConfigError, ExperimentConfig, from_dict
 from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, output_error
 from interllm.imports_log import log_loaded_modules
 from interllm.io import confine_writes
-from interllm.llm.model_files import model_dir
 
 ROOT = Path(__file__).resolve().parent.parent
 QUIET_LOGGERS = ("httpx", "httpx2", "httpcore", "openai")  # a line per HTTP request (INFO) unless verbose
@@ -44,10 +43,14 @@ def load_params(path: Path | None = None) -> tuple[ExperimentConfig, dict]:
     return from_dict(raw, source=str(path)).seeded(), raw
 
 
-def write_folders(cfg: ExperimentConfig, data: Path) -> tuple[Path, ...]:
-    """The folders a stage or run may write into: its data folder, the LLM response cache and the
-    folder the packaged model is assembled in (``interllm.io.confine_writes``; a relative cache
-    folder is the client's: relative to the working directory)."""
+def write_folders(cfg: ExperimentConfig, data: Path, llm: bool = True) -> tuple[Path, ...]:
+    """The folders a stage or run may write into (``interllm.io.confine_writes``): its data folder
+    and, when it talks to the LLM (``llm``), the response cache and the folder the packaged model is
+    assembled in (a relative cache folder is the client's: relative to the working directory)."""
+    if not llm:
+        return (data,)
+    from interllm.llm.model_files import model_dir  # lazy: a stage without the LLM does not load (or depend on) it
+
     return data, Path(cfg.llm.cache_dir), model_dir()
 
 
@@ -100,7 +103,9 @@ def _dvc_hint(name: str) -> str:
             f"`dvc checkout {stage}` restores them from the DVC cache (dvc.lock still names them)")
 
 
-def stage_main(name: str, body: Callable[[ExperimentConfig, dict, Path], None]) -> None:
+def stage_main(name: str, body: Callable[[ExperimentConfig, dict, Path], None], llm: bool = False) -> None:
+    """Run a DVC stage's ``body(cfg, raw params, data folder)``, its writes confined to the data folder
+    (and the LLM's cache and model folders with ``llm``); a user-fixable error exits 2 with one line."""
     ap = argparse.ArgumentParser(prog=f"python -m pipeline.{name}", description=f"DVC stage '{name}'")
     ap.add_argument("--params", type=Path, default=None, help="params file (default: params.yaml)")
     ap.add_argument("-v", "--verbose", action="store_true", help="debug logging")
@@ -111,7 +116,7 @@ def stage_main(name: str, body: Callable[[ExperimentConfig, dict, Path], None]) 
         data = Path(cfg.data_dir)
         if not data.is_absolute():
             data = ROOT / data
-        with confine_writes(*write_folders(cfg, data)):
+        with confine_writes(*write_folders(cfg, data, llm=llm)):
             body(cfg, raw, data)
     except UserError as e:
         print(f"error: stage '{name}': {e}{_dvc_hint(name)}", file=sys.stderr)

@@ -7,4 +7,4 @@ from pipeline._common import stage_main
 if __name__ == "__main__":
     stage_main("missions", lambda cfg, raw, data: run_missions(
         cfg, data / "scenes", data / "candidates", data / "runs", resolved_config=raw,
-        record_commit=False))
+        record_commit=False), llm=True)

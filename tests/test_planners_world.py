@@ -1,14 +1,17 @@
 """Planners end to end on the real MuJoCo World (tiny generated scene), fake and real LLM."""
 
 import json
+import re
 
 import pytest
 from helpers.planners import FakeScoreClient
+from helpers.recording import rerun_cli, run_cli
 
+from interllm.cli import _main as cli_main
 from interllm.config import ExperimentConfig, MissionConfig
 from interllm.core.actions import State, plan_from_list
 from interllm.llm import make_client
-from interllm.metrics.compute import Gammas, mission_rows
+from interllm.metrics.compute import Gammas, mission_rows, run_log_object_rows
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
 from interllm.planning.feasibility import check_plan
@@ -17,7 +20,7 @@ from interllm.scene import catalog, generator
 from interllm.scene import missions as missions_mod
 from interllm.sim.kinematics import RobotKinematics
 from interllm.sim.world import World
-from interllm.stages.missions import metric_rows_logger
+from interllm.stages.missions import command_results_logger
 
 
 @pytest.fixture(scope="module")
@@ -69,9 +72,10 @@ def test_inter_llm_with_the_real_embedded_model_on_one_command(tiny, tmp_path):
     assert rec.commands[0].actions
 
 
-def test_run_log_has_every_llm_call_and_the_per_object_metrics(tiny, tmp_path):
+def test_run_log_has_every_llm_call_and_the_results_the_metrics_come_from(tiny, tmp_path):
     """The mission's MCAP holds one /llm/calls event per counted call and, at the end of each
-    command, that command's per-object rows exactly as the aggregate stage computes them."""
+    command, that command's executed result; the per-object metric rows a replay computes from
+    them are exactly the aggregate stage's."""
 
     scene, mission = tiny
     cfg = ExperimentConfig()
@@ -79,29 +83,37 @@ def test_run_log_has_every_llm_call_and_the_per_object_metrics(tiny, tmp_path):
     client = FakeScoreClient()
     cands = generate_initial_candidates(scene, mission, client, cfg)
     paths = []
+    meta = {"planner": "inter_llm", "scene": scene.id, "mission": mission.id, "config": {"seed": 0}}
     for i in range(2):
         paths.append(tmp_path / f"run{i}.mcap")
-        with McapRecorder(paths[-1], scene, {"seed": 0}, robot=RobotKinematics(cfg.sim)) as rec:
-            hook = metric_rows_logger(rec, "inter_llm", scene, mission.id, Gammas.from_config(cfg))
+        with McapRecorder(paths[-1], scene, meta, robot=RobotKinematics(cfg.sim)) as rec:
             record = run_mission("inter_llm", World(scene, cfg.sim), mission, cands, FakeScoreClient(), cfg,
-                                 recorder=rec, on_command_end=hook)
+                                 recorder=rec, on_command_end=command_results_logger(rec))
     assert paths[0].read_bytes() == paths[1].read_bytes()  # same inputs, same bytes
     run = read_run(paths[0])
     calls = run.events["/llm/calls"]
     assert len(calls) == sum(c.summary.llm_calls for c in record.commands) > 0
     assert all(p["key"] and p["kind"] in ("score", "complete") and p["purpose"] for _, p in calls)
     assert [t for t, _ in calls] == sorted(t for t, _ in calls)
-    scene_map = {"category": {o.id: o.category for o in scene.objects.values()},
-                 "furniture": {o.id: o.furniture for o in scene.objects.values()}}
-    rows, cmd_rows, mission_row = mission_rows(record, scene_map, Gammas.from_config(cfg))
-    logged = [p for _, p in run.events["/metrics/object"]]
-    assert logged == json.loads(json.dumps(rows))
-    assert [p for _, p in run.events["/metrics/command"]] == json.loads(json.dumps(cmd_rows))
-    assert logged[-1]["m_overall_cum"] == pytest.approx(mission_row["m_overall"])
-    assert mission_row["m_overall"] == pytest.approx(sum(r["m_overall"] for r in logged))
-    # each command's rows are logged when it ends: at the simulated time of its last action
+    # the run log's results are the record's, command by command, each at the end of its command
+    logged = run.command_records()
+    assert json.loads(json.dumps([c.to_dict() for _, c in logged])) == \
+        json.loads(json.dumps([c.to_dict() for c in record.commands]))
     clock, ends = 0.0, []
     for c in record.commands:
         clock += sum(a.time for a in c.actions)
         ends.append(clock)
-    assert [t for t, _ in run.events["/metrics/command"]] == pytest.approx(ends)
+    assert [t for t, _ in logged] == pytest.approx(ends)
+    # and the rows computed from them are the aggregate stage's
+    scene_map = {"category": {o.id: o.category for o in scene.objects.values()},
+                 "furniture": {o.id: o.furniture for o in scene.objects.values()}}
+    rows, _, mission_row = mission_rows(record, scene_map, Gammas.from_config(cfg))
+    replayed = run_log_object_rows(run)
+    assert [r for _, r in replayed] == rows
+    assert replayed[-1][1]["m_overall_cum"] == pytest.approx(mission_row["m_overall"])
+    if rerun_cli() is not None:  # `interllm replay` plots them: one point per object
+        rrd = tmp_path / "run0.rrd"
+        assert cli_main(["replay", str(paths[0]), "--save", str(rrd)]) == 0
+        printed = run_cli("rrd", "print", str(rrd)).stdout
+        n = sum(int(m.group(1)) for m in re.finditer(r"with (\d+) rows \([^)]*\) - /metrics/m_overall_cum - ", printed))
+        assert n == len(rows)

@@ -58,7 +58,7 @@ def test_channels_schemas_and_counts(run_file):
     n_nav = sum(1 for r, _ in acts if r.action.kind == "navigate")
     expected = {"/scene": 1, "/scene/objects": 1, "/grid/presumed": 1, "/grid/true": 1, "/tf": N * S, "/joint_states": N * S,
                 "/path/presumed": n_nav, "/path/driven": n_nav, "/actions": N, "/log": N,
-                "/planner/candidates": N, "/metrics/object": N}
+                "/planner/candidates": N, "/planner/costs": N}
     assert run.counts == expected
     assert run.summary_counts == expected
     msgs, summary = _raw(path)

@@ -20,7 +20,7 @@ REPO = Path(__file__).resolve().parents[1]
 ENTITIES = ["/world/scene/walls", "/world/scene/doors", "/world/scene/furniture", "/world/scene/objects",
             "/world/robot", "/world/robot/body", "/world/paths/presumed", "/world/paths/driven",
             "/topdown/grid", "/topdown/grid_true", "/topdown/robot", "/log", "/events/planner/candidates",
-            "/events/metrics/object", "/costs/navigate", "/costs/pickup", "/costs/place", "/costs/cumulative",
+            "/events/planner/costs", "/costs/navigate", "/costs/pickup", "/costs/place", "/costs/cumulative",
             "/joints/shoulder", "/joints/elbow", "/joints/wrist"]
 
 

@@ -127,13 +127,16 @@ class CommandRecord:
                 "final_locations": dict(self.final_locations)}
 
     @classmethod
-    def from_dict(cls, d: Mapping, where: str) -> CommandRecord:
-        actions = []
-        for i, a in enumerate(_get(d, "actions", where)):
-            try:
-                actions.append(ActionResult.from_record(a))
-            except (KeyError, TypeError, ValueError) as e:
-                raise RecordError(f"{where}.actions[{i}]: malformed action result ({type(e).__name__}: {e})") from None
+    def from_dict(cls, d: Mapping, where: str, actions: list[ActionResult] | None = None) -> CommandRecord:
+        """From ``to_dict()``'s mapping; ``actions``: the command's actions already rebuilt (a run
+        log keeps them on /actions and leaves them out of its /results/command records)."""
+        if actions is None:
+            actions = []
+            for i, a in enumerate(_get(d, "actions", where)):
+                try:
+                    actions.append(ActionResult.from_record(a))
+                except (KeyError, TypeError, ValueError) as e:
+                    raise RecordError(f"{where}.actions[{i}]: malformed action result ({type(e).__name__}: {e})") from None
         return cls(str(_get(d, "command_id", where)), str(_get(d, "text", where)),
                    GoalRecord.from_dict(_get(d, "goal", where), f"{where}.goal"),
                    CommandSummary.from_dict(_get(d, "summary", where), f"{where}.summary"), actions,

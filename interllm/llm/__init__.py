@@ -14,32 +14,25 @@ pin shared by a client's views), ``cache``, ``calllog``, ``schema``, ``health`` 
 quoted server text), ``entry_layout`` (the cached responses' layouts), ``prompts``, ``errors``;
 backends ``embedded`` (with ``model_files``, the GGUF, and ``llama_internals``, the llama-cpp-python
 internals it needs and their start-up check),
-``ollama_backend``, ``openai_backend`` and ``oracle_backend``; ``testing`` holds a deterministic
-test backend (never imported here).
+``ollama_backend``, ``openai_backend`` and ``oracle_backend`` (imported on the first lookup in
+``BACKENDS``); ``testing`` holds a deterministic test backend (never imported here). Names are
+imported from their modules on first use (``interllm.lazy``), so reading a call log
+(``interllm.llm.calllog``) loads no backend.
 """
 
-from interllm.llm import embedded, ollama_backend, openai_backend, oracle_backend  # noqa: F401  (each registers its backend)
-from interllm.llm.backend import BACKENDS, Backend, Generation, Scores, make_backend, preflight
-from interllm.llm.cache import CacheMissError, ResponseCache, cache_key
-from interllm.llm.calllog import CallLog
-from interllm.llm.client import LLMClient, make_client
-from interllm.llm.client_state import ClientStats
-from interllm.llm.errors import LLMError, LLMOutputError, LLMQualityError
-from interllm.llm.prompts import Template, TemplateError, load_template, template_names
-from interllm.llm.schema import check_answer
-from interllm.llm.types import (
-    LLMClientProtocol,
-    LLMOptions,
-    LLMRequest,
-    LLMResponse,
-    Message,
-    ScoreRequest,
-    ScoreResponse,
-)
+from interllm.lazy import exports_of, lazy_exports
 
-__all__ = [
-    "BACKENDS", "Backend", "CacheMissError", "CallLog", "ClientStats", "Generation", "LLMClient", "LLMClientProtocol",
-    "LLMError", "LLMOptions", "LLMOutputError", "LLMQualityError", "LLMRequest", "LLMResponse", "Message",
-    "ResponseCache", "ScoreRequest", "ScoreResponse", "Scores", "Template", "TemplateError", "cache_key",
-    "check_answer", "load_template", "make_backend", "make_client", "preflight", "template_names",
-]
+_EXPORTS = exports_of({
+    "interllm.llm.backend": ("BACKENDS", "Backend", "Generation", "Scores", "make_backend", "preflight"),
+    "interllm.llm.cache": ("CacheMissError", "ResponseCache", "cache_key"),
+    "interllm.llm.calllog": ("CallLog",),
+    "interllm.llm.client": ("LLMClient", "make_client"),
+    "interllm.llm.client_state": ("ClientStats",),
+    "interllm.llm.errors": ("LLMError", "LLMOutputError", "LLMQualityError"),
+    "interllm.llm.prompts": ("Template", "TemplateError", "load_template", "template_names"),
+    "interllm.llm.schema": ("check_answer",),
+    "interllm.llm.types": ("LLMClientProtocol", "LLMOptions", "LLMRequest", "LLMResponse", "Message", "ScoreRequest",
+                           "ScoreResponse"),
+})
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

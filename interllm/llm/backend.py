@@ -3,8 +3,8 @@
 A backend answers ``generate`` (one completion, optionally under a JSON schema) and ``score``
 (log-likelihood of continuations); the client (``interllm.llm.client``) adds the cache, the call
 log, schema checks and repairs. Adding one: a class ``Backend(cfg: LLMConfig)`` with the
-methods below, decorated ``@BACKENDS.register("<name>")``, in a module that ``interllm/llm/__init__.py``
-imports; ``llm.backend=<name>`` then selects it (see docs/extending.md, "Adding an LLM backend").
+methods below, decorated ``@BACKENDS.register("<name>")``, in a module named in ``BACKENDS``' builtins
+(imported on the first lookup); ``llm.backend=<name>`` then selects it (see docs/extending.md, "Adding an LLM backend").
 """
 
 from __future__ import annotations
@@ -52,7 +52,9 @@ class Backend(Protocol):
     def close(self) -> None: ...
 
 
-BACKENDS: Registry = Registry("LLM backend", "llm.backend")  # filled by @BACKENDS.register in each backend
+# filled by @BACKENDS.register in each backend; the built-in ones are imported on the first lookup
+BACKENDS: Registry = Registry("LLM backend", "llm.backend", builtins=(
+    "interllm.llm.embedded", "interllm.llm.ollama_backend", "interllm.llm.openai_backend", "interllm.llm.oracle_backend"))
 
 
 def make_backend(cfg: LLMConfig) -> Backend:

@@ -89,6 +89,13 @@ class Gammas:
         return cls(nav=float(cfg.sim.gamma_nav), man=float(cfg.sim.gamma_man),
                    obj=float(cfg.metrics.gamma_obj))
 
+    @classmethod
+    def from_mapping(cls, cfg: Mapping) -> Gammas:
+        """From a config as a mapping (a run log's recorded config); a missing key keeps its default."""
+        sim, met = cfg.get("sim") or {}, cfg.get("metrics") or {}
+        return cls(nav=float(sim.get("gamma_nav", cls.nav)), man=float(sim.get("gamma_man", cls.man)),
+                   obj=float(met.get("gamma_obj", cls.obj)))
+
 
 def m_overall(cc: float, t_exe: float, d: float, sr_man: float, sr_obj: float, g: Gammas) -> float:
     """m_overall = γ_nav·cc + t_exe + d + γ_man·(1 − sr_man) + γ_obj·(1 − sr_obj).
@@ -213,8 +220,8 @@ def _moved(where: dict, command: CommandRecord) -> None:
 
 
 class MissionRows:
-    """The metric rows of one mission, built command by command (``add``), so the missions stage can
-    log each command's rows when it ends and the aggregate stage gets the same numbers.
+    """The metric rows of one mission, built command by command (``add``): the aggregate stage adds a
+    mission record's commands, a replay the commands a run log recorded (``run_log_object_rows``).
 
     scene: {"category": {obj: cat}, "furniture": {obj: furniture}} (``load_scene_categories``).
     """
@@ -294,6 +301,22 @@ def mission_rows(rec: MissionRecord, scene: Mapping, g: Gammas) -> tuple[list[di
     for c in rec.commands:
         rows.add(c)
     return rows.objects, rows.commands, rows.mission_row(rec.sim_time)
+
+
+def run_log_object_rows(run: Any) -> list[tuple[float, dict]]:
+    """(end time of its command [s], per-object row) of a run log (``interllm.record.reader.RunLog``),
+    computed from its executed results (/results/command and /actions) as the aggregate stage
+    computes them, with the γ of the config the run recorded. A replay plots them."""
+    cfg = run.run.get("config") if isinstance(run.run.get("config"), Mapping) else {}
+    g = Gammas.from_mapping(cfg)
+    objects = run.scene.objects.values() if run.scene is not None else ()
+    scene = {"category": {o.id: o.category for o in objects}, "furniture": {o.id: o.furniture for o in objects}}
+    rows = MissionRows(str(run.run.get("planner", "")), str(run.run.get("scene", "")),
+                       str(run.run.get("mission", "")), scene, g)
+    out: list[tuple[float, dict]] = []
+    for t, command in run.command_records():
+        out += [(t, row) for row in rows.add(command)[0]]
+    return out
 
 
 def _sums(rows: list[dict]) -> dict:

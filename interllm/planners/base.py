@@ -6,7 +6,7 @@ the world (:class:`~interllm.planners.world_view.WorldView`), the proposer (the 
 implementation per mode), the known-cost memory, the recorder and its config (``PlannerConfig``).
 
 Adding a planner: one module with a class decorated ``@PLANNERS.register("<name>", label="<Name>")``
-that has ``run_command(command, ctx) -> CommandResult``, imported by ``interllm/planners/__init__.py``,
+that has ``run_command(command, ctx) -> CommandResult``, its module named in ``PLANNERS``' builtins below,
 and one config file ``conf/planner/<name>.yaml`` (see docs/extending.md).
 """
 
@@ -20,7 +20,10 @@ from interllm.core.results import ActionResult
 from interllm.registry import Registry
 from interllm.scene.graph import Command
 
-PLANNERS: Registry = Registry("planner", "planner.names")
+# filled by @PLANNERS.register in each planner's module; the built-in ones are imported on the first lookup
+PLANNERS: Registry = Registry("planner", "planner.names", builtins=(
+    "interllm.planners.sayplan", "interllm.planners.moma_llm", "interllm.planners.inter_llm",
+    "interllm.planners.nothing", "interllm.planners.optimal"))
 
 
 @dataclass

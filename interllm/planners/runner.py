@@ -28,7 +28,7 @@ def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_c
     initial_candidates: {command_id: [plan list, ...]} from ``generate_initial_candidates``;
     client: the LLM client (its calls get the run's labels and are tallied per command);
     on_command_end(record so far, simulated time [s]): called after each command (the missions
-    stage logs the command's metric rows with it).
+    stage logs the command's executed result with it).
     """
     planner = PLANNERS.get(planner_name)()
     missing = [c.id for c in mission.commands if c.id not in initial_candidates]

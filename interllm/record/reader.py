@@ -35,11 +35,13 @@ from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
+from interllm.core.records import CommandRecord
 from interllm.core.results import ActionResult, Trajectory
 from interllm.errors import MissingInputError, UserError
 from interllm.record.foxglove import OCCUPIED
 from interllm.record.topics import (
     ACTIONS_TOPIC,
+    COMMAND_RESULTS_TOPIC,
     DRIVEN_TOPIC,
     GRID_PREFIX,
     JOINT_TOPIC,
@@ -134,6 +136,21 @@ class RunLog:
     def status(self) -> str:
         """"ok" / "error" from the "end" record; "truncated" when the run never closed the file."""
         return self.metadata.get("end", {}).get("status", "truncated")
+
+    def command_records(self) -> list[tuple[float, CommandRecord]]:
+        """(end time [s], record) of every command the run finished, from its /results/command events
+        and the /actions records they count (a truncated run: the commands it finished)."""
+        out, start = [], 0
+        for i, (t, payload) in enumerate(self.events.get(COMMAND_RESULTS_TOPIC, [])):
+            n = int(payload.get("n_actions", -1))
+            if n < 0 or start + n > len(self.actions):
+                raise RunLogFormatError(f"{self.path}: {COMMAND_RESULTS_TOPIC} record {i} counts {n} actions, "
+                                        f"but only {len(self.actions) - start} /actions records follow the "
+                                        f"earlier commands'")
+            out.append((t, CommandRecord.from_dict(payload, f"{self.path}: {COMMAND_RESULTS_TOPIC}[{i}]",
+                                                   actions=self.actions[start:start + n])))
+            start += n
+        return out
 
     @property
     def sim_time(self) -> float:

@@ -13,11 +13,11 @@ import os
 import sys
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from interllm.errors import MissingInputError, UserError
-from interllm.record.reader import read_run
+from interllm.record.reader import RunLog, read_run
 from interllm.record.rerun_log import log_run
 
 
@@ -71,13 +71,18 @@ def _recording_id(path: Path) -> uuid.UUID:
     return uuid.uuid5(uuid.NAMESPACE_URL, f"interllm-run:{path.name}:{path.stat().st_size}")
 
 
+MetricRows = Callable[[RunLog], Sequence[tuple[float, Mapping]]]
+
+
 def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool = False,
-           serve: bool = False) -> list[Path]:
+           serve: bool = False, metric_rows: MetricRows | None = None) -> list[Path]:
     """Replay one run MCAP, or every run under a folder, in rerun.
 
     save: output ``.rrd`` (one run) or folder (several runs). Default when neither ``spawn`` nor
         ``serve`` is set (or there is no display to spawn a viewer on): ``<run>.rrd`` next to
         each MCAP. spawn: open a native viewer; serve: start a gRPC server (returns immediately).
+    metric_rows(run): the per-object metric rows to plot under ``metrics/``
+    (``interllm.metrics.compute.run_log_object_rows``; None: no metrics plot).
     Returns the ``.rrd`` files written.
     """
     import rerun as rr  # lazy: rerun loads only for a replay
@@ -97,6 +102,7 @@ def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool 
     for i, mcap_path in enumerate(runs):
         try:
             run = read_run(mcap_path)
+            rows = metric_rows(run) if metric_rows is not None else ()
         except Exception as e:  # noqa: BLE001 - one bad file must not stop the others
             failed.append((mcap_path, f"{type(e).__name__}: {e}"))
             print(f"replay: {mcap_path}: cannot be read ({type(e).__name__}: {e}); skipped", file=sys.stderr)
@@ -122,7 +128,7 @@ def replay(path_or_dir: str | os.PathLike, save: str | None = None, spawn: bool 
             url = rec.serve_grpc(grpc_port=9876 + i, default_blueprint=bp)
             print(f"replay: serving {mcap_path} at {url}")
         rec.send_recording_name(stem)
-        log_run(rec, run)
+        log_run(rec, run, rows)
         rec.flush()
         if out is not None:
             rec.disconnect()
@@ -150,8 +156,9 @@ class ReplayIncomplete(UserError):
 _SERVED: list = []
 
 
-def replay_main(argv: Sequence[str] | None = None) -> int:
-    """``interllm replay RUN.mcap|DIR [--save OUT.rrd] [--spawn | --serve]``."""
+def replay_main(argv: Sequence[str] | None = None, metric_rows: MetricRows | None = None) -> int:
+    """``interllm replay RUN.mcap|DIR [--save OUT.rrd] [--spawn | --serve]``; ``metric_rows`` as for
+    ``replay`` (the CLI passes the metrics package's)."""
     ap = argparse.ArgumentParser(prog="interllm replay", description="Replay run MCAP logs in rerun.")
     ap.add_argument("path", help="a run .mcap (or a killed run's .mcap.partial) or a folder of runs")
     ap.add_argument("--save", default=None, help="output .rrd (one run) or folder (several runs); "
@@ -161,7 +168,7 @@ def replay_main(argv: Sequence[str] | None = None) -> int:
     g.add_argument("--serve", action="store_true", help="serve over gRPC until Ctrl-C")
     args = ap.parse_args(list(argv) if argv is not None else None)
     try:
-        replay(args.path, save=args.save, spawn=args.spawn, serve=args.serve)
+        replay(args.path, save=args.save, spawn=args.spawn, serve=args.serve, metric_rows=metric_rows)
     except ReplayIncomplete as e:  # 1: some run logs were converted; 2: none could be read
         print(f"interllm replay: error: {e}", file=sys.stderr)
         return 1 if e.written else 2

@@ -18,7 +18,9 @@ Entities (timeline ``sim_time``: simulated mission time, a duration in seconds):
   planner events (compact JSON)
 - ``costs/{navigate,pickup,place}`` and ``costs/cumulative``  Scalars of action costs at the action end
 - ``metrics/m_overall_cum``                        Scalars of the cumulative m_overall per object
-  (``/metrics/object`` events) and ``metrics/objects_fulfilled``, the running count of fulfilled objects
+  and ``metrics/objects_fulfilled``, the running count of fulfilled objects, from the per-object rows
+  given to ``log_run`` (the metrics are computed above this package:
+  ``interllm.metrics.compute.run_log_object_rows``)
 - ``joints/<name>``                                Scalars of arm joint angles [rad]
 
 A truncated run ends with a warning in the text log saying where it stops.
@@ -27,6 +29,7 @@ A truncated run ends with a warning in the text log saying where it stops.
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -52,8 +55,9 @@ def _to_pixels(xy: np.ndarray, run: RunLog) -> np.ndarray:
     return np.stack([u, v], axis=1)
 
 
-def log_run(rec, run: RunLog) -> None:
-    """Log one RunLog to a rerun RecordingStream (the entities of the module doc)."""
+def log_run(rec, run: RunLog, metric_rows: Sequence[tuple[float, Mapping]] = ()) -> None:
+    """Log one RunLog to a rerun RecordingStream (the entities of the module doc); ``metric_rows``:
+    (t [s], per-object row with "m_overall_cum" and "sr_obj") to plot under ``metrics/``."""
     _log_header(rec, run)
     if run.scene is not None:
         _log_scene(rec, run)
@@ -65,7 +69,7 @@ def log_run(rec, run: RunLog) -> None:
     _log_motion(rec, run)
     _log_paths(rec, run)
     _log_costs(rec, run)
-    _log_metrics(rec, run)
+    _log_metrics(rec, metric_rows)
     _log_text(rec, run)
 
 
@@ -173,17 +177,16 @@ def _log_costs(rec, run: RunLog) -> None:
                                              level="INFO" if a.success else "WARN"))
 
 
-def _log_metrics(rec, run: RunLog) -> None:
-    """The cumulative m_overall and the running count of fulfilled objects (/metrics/object events)."""
+def _log_metrics(rec, metric_rows: Sequence[tuple[float, Mapping]]) -> None:
+    """The cumulative m_overall and the running count of fulfilled objects, one point per object."""
     import rerun as rr  # lazy: rerun loads only for a replay
 
     fulfilled = 0.0
-    for t, payload in run.events.get("/metrics/object", []):
-        if "m_overall_cum" in payload:
-            fulfilled += float(payload.get("sr_obj", 0.0))
-            rec.set_time(TIMELINE, duration=t)
-            rec.log("metrics/m_overall_cum", rr.Scalars(float(payload["m_overall_cum"])))
-            rec.log("metrics/objects_fulfilled", rr.Scalars(fulfilled))
+    for t, row in metric_rows:
+        fulfilled += float(row.get("sr_obj", 0.0))
+        rec.set_time(TIMELINE, duration=t)
+        rec.log("metrics/m_overall_cum", rr.Scalars(float(row["m_overall_cum"])))
+        rec.log("metrics/objects_fulfilled", rr.Scalars(fulfilled))
 
 
 def _log_text(rec, run: RunLog) -> None:

@@ -27,6 +27,9 @@ clamped to be non-decreasing per channel):
                       its /actions record: the exact ``ActionResult.driven_path``
 - ``/actions``        JSON: ActionResult.to_record(paths=False) + "context" + "index" + "n_samples" at the
                       action end; its JSON schema is ``ACTION_SCHEMA`` (full, strict)
+- ``/results/command`` JSON at each command's end: its ``CommandRecord.to_dict()`` without the
+                      actions, plus "n_actions": the command's actions are the next n_actions
+                      /actions records (``read_run`` -> ``RunLog.command_records``)
 - ``/log``            foxglove.Log
 - any other topic given to ``event()`` (``/planner/candidates``, ``/llm/calls``, ...): a JSON
   channel with a permissive object schema, registered on first use.
@@ -56,6 +59,7 @@ JOINT_TOPIC = "/joint_states"
 PRESUMED_TOPIC = "/path/presumed"
 DRIVEN_TOPIC = "/path/driven"
 ACTIONS_TOPIC = "/actions"
+COMMAND_RESULTS_TOPIC = "/results/command"
 LOG_TOPIC = "/log"
 GRID_PREFIX = "/grid/"
 RESERVED_TOPICS = (TF_TOPIC, SCENE_TOPIC, OBJECTS_TOPIC, OBJECT_EVENTS_TOPIC, JOINT_TOPIC, PRESUMED_TOPIC, DRIVEN_TOPIC, ACTIONS_TOPIC,

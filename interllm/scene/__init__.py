@@ -1,31 +1,22 @@
-"""Scene subpackage: scene graph, catalog, procedural generator, missions, grid, import/export."""
+"""Scene subpackage: scene graph, catalog, procedural generator, missions, grid, import/export. Names are imported from
+their modules on first use (``interllm.lazy``)."""
 
-from interllm.scene.catalog import Catalog, CatalogError, CommandSpec, load_catalog, scene_config
-from interllm.scene.generator import SceneGenerationError, generate_scene
-from interllm.scene.geometry import free_edges
-from interllm.scene.graph import Command, Door, Furniture, Goal, Mission, Room, SceneGraph, SceneObject, Wall
-from interllm.scene.grid import OccupancyGrid, approach_cells, free_components, largest_component, rasterize
-from interllm.scene.importer import ImportOptions, import_procthor
-from interllm.scene.missions import (
-                                     MissionError,
-                                     generate_missions,
-                                     load_missions,
-                                     save_missions,
-                                     start_pose,
-                                     supported_commands,
-)
-from interllm.scene.reachability import unreachable
-from interllm.scene.render import render_topdown
-from interllm.scene.schema import scene_json_schema
-from interllm.scene.validate import SceneValidationError, load_scene_file, validate_dict, validate_scene
+from interllm.lazy import exports_of, lazy_exports
 
-__all__ = [
-    "Catalog", "CatalogError", "CommandSpec", "load_catalog", "scene_config",
-    "SceneGenerationError", "free_edges", "generate_scene", "unreachable",
-    "Command", "Door", "Furniture", "Goal", "Mission", "Room", "SceneGraph", "SceneObject", "Wall",
-    "OccupancyGrid", "approach_cells", "free_components", "largest_component", "rasterize",
-    "ImportOptions", "import_procthor",
-    "MissionError", "generate_missions", "load_missions", "save_missions", "start_pose", "supported_commands",
-    "render_topdown", "scene_json_schema",
-    "SceneValidationError", "load_scene_file", "validate_dict", "validate_scene",
-]
+_EXPORTS = exports_of({
+    "interllm.scene.catalog": ("Catalog", "CatalogError", "CommandSpec", "load_catalog", "scene_config"),
+    "interllm.scene.generator": ("SceneGenerationError", "generate_scene"),
+    "interllm.scene.geometry": ("free_edges",),
+    "interllm.scene.graph": ("Command", "Door", "Furniture", "Goal", "Mission", "Room", "SceneGraph", "SceneObject",
+                             "Wall"),
+    "interllm.scene.grid": ("OccupancyGrid", "approach_cells", "free_components", "largest_component", "rasterize"),
+    "interllm.scene.importer": ("ImportOptions", "import_procthor"),
+    "interllm.scene.missions": ("MissionError", "generate_missions", "load_missions", "save_missions", "start_pose",
+                                "supported_commands"),
+    "interllm.scene.reachability": ("unreachable",),
+    "interllm.scene.render": ("render_topdown",),
+    "interllm.scene.schema": ("scene_json_schema",),
+    "interllm.scene.validate": ("SceneValidationError", "load_scene_file", "validate_dict", "validate_scene"),
+})
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

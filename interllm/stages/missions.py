@@ -24,12 +24,11 @@ from interllm.imports_log import log_loaded_modules
 from interllm.io import check_name, child_path, ensure_dir, read_json, write_json
 from interllm.lifetime import die_with_parent
 from interllm.llm.health import check_failure_share
-from interllm.metrics.compute import Gammas, MissionRows
 from interllm.planners import PLANNERS
 from interllm.planners.runner import run_mission
 from interllm.progress import progress
 from interllm.record.recorder import McapRecorder
-from interllm.scene.graph import SceneGraph
+from interllm.record.topics import COMMAND_RESULTS_TOPIC
 from interllm.sim.kinematics import RobotKinematics
 from interllm.sim.world import World
 from interllm.stages.inputs import PROBE_FILE, load_grids, load_scene_and_missions, scene_ids, stage_client
@@ -49,7 +48,6 @@ class MissionWorker:
             cfg, Path(scenes_dir), Path(candidates_dir), Path(out_dir), for_run_log(prov))
         self.client = stage_client(cfg, call_log, "missions", probe=prov.get("llm_probe"))
         self.robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
-        self.gammas = Gammas.from_config(cfg)
         self._scenes: dict[str, tuple] = {}
         self._worlds: dict[str, World] = {}  # one per scene, reset for each mission run
 
@@ -73,24 +71,21 @@ class MissionWorker:
             self._worlds[sid] = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids)
         world = self._worlds[sid]
         with McapRecorder(d / f"{mission_id}.mcap", scene, meta, grids=grids, robot=self.robot) as rec:
-            hook = metric_rows_logger(rec, planner, scene, mission_id, self.gammas)
+            hook = command_results_logger(rec)
             record = run_mission(planner, world, mission, cands[mission_id], self.client, self.cfg, recorder=rec,
                                  on_command_end=hook)
         write_json(d / f"{mission_id}.json", record.to_dict())
 
 
-def metric_rows_logger(recorder, planner: str, scene: SceneGraph, mission_id: str, gammas: Gammas):
-    """A ``run_mission`` hook that logs each command's metric rows (``/metrics/object``,
-    ``/metrics/command``) as the aggregate stage will compute them, when the command ends."""
-    rows = MissionRows(planner, scene.id, mission_id,
-                       {"category": {o.id: o.category for o in scene.objects.values()},
-                        "furniture": {o.id: o.furniture for o in scene.objects.values()}}, gammas)
+def command_results_logger(recorder):
+    """A ``run_mission`` hook that logs each command's executed result on ``/results/command`` when it
+    ends: its record without the actions (those are on /actions) and how many actions it had. The
+    metrics are computed from results later, by the aggregate stage and by a replay."""
 
     def on_command_end(record: MissionRecord, t: float) -> None:
-        objects, command = rows.add(record.commands[-1])
-        for row in objects:
-            recorder.event("/metrics/object", t, row)
-        recorder.event("/metrics/command", t, command)
+        c = record.commands[-1]
+        payload = {k: v for k, v in c.to_dict().items() if k != "actions"}
+        recorder.event(COMMAND_RESULTS_TOPIC, t, {**payload, "n_actions": len(c.actions)})
     return on_command_end
 
 

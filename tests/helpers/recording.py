@@ -100,8 +100,8 @@ def write_run(path, n: int = 6, samples: int = 40, **kw) -> tuple[list, dict]:
             events.append(ev)
             rec.log(r.t_start, "info", f"executing {r.action}")
             rec.action(r, ctx)
-            rec.event("/metrics/object", r.t_start + r.time, {"cost": r.cost})
-            events.append(("/metrics/object", r.t_start + r.time, {"cost": r.cost}))
+            rec.event("/planner/costs", r.t_start + r.time, {"cost": r.cost})
+            events.append(("/planner/costs", r.t_start + r.time, {"cost": r.cost}))
     return acts, {"events": events, "meta": meta, "scene": scene}
 
 
