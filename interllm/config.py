@@ -243,8 +243,8 @@ def check_api_key_env(value: object) -> None:
 
 @dataclass
 class PlannerConfig:
-    # registered planners to run; nothing and optimal are the references every table places the
-    # others between (doing nothing; ground-truth costs)
+    # registered planners to run; nothing and optimal are the anchors every table places the others
+    # between (doing nothing; the cheapest assignment on ground-truth costs), never judged
     names: list[str] = field(default_factory=lambda: ["inter_llm", "sayplan", "moma_llm", "nothing", "optimal"])
     M: int = 3  # plan candidates per command
     max_regenerations: int = 3  # feasibility-repair rounds per candidate (bounded loop)
@@ -290,9 +290,13 @@ class MetricsConfig:
     bootstrap_samples: int = 2000
     ci: float = 0.95
     seed: int = 0
+    # the judged planner: the one whose paired differences against every other planner (the
+    # anchors nothing and optimal aside) the report gives and whose claims it checks
+    judge: str = "inter_llm"
 
     def validate(self) -> None:
         _check(self.gamma_obj >= 0, "metrics.gamma_obj", "must be >= 0")
+        _check(bool(self.judge.strip()), "metrics.judge", "must name a planner (one of planner.names)")
         _check(len(self.gamma_obj_sensitivity) >= 1 and all(g >= 0 for g in self.gamma_obj_sensitivity),
                "metrics.gamma_obj_sensitivity", f"must list values >= 0, got {self.gamma_obj_sensitivity}")
         _check(100 <= self.bootstrap_samples <= 100000, "metrics.bootstrap_samples",

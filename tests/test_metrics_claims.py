@@ -21,7 +21,7 @@ def test_the_30_percent_claim(lo, hi, verdict):
 
 
 def _commands(gain_per_object: float, n_missions: int = 6) -> list[dict]:
-    """Two-command missions; the baseline costs 100 per object in both commands, the reference 90
+    """Two-command missions; the baseline costs 100 per object in both commands, the judged planner 90
     in the first and 90 - gain in the last (±1 of mission-to-mission noise)."""
     rows = []
     for i in range(n_missions):
@@ -35,9 +35,9 @@ def _commands(gain_per_object: float, n_missions: int = 6) -> list[dict]:
 
 
 def test_self_improvement_is_a_difference_in_differences():
-    v = claims.self_improvement(_commands(10.0), n_boot=500)["sayplan"]
+    v = claims.self_improvement(_commands(10.0), "inter_llm", n_boot=500)["sayplan"]
     assert v["did"] == pytest.approx(-10.0) and v["n"] == 6 and v["verdict"] == "holds"
-    assert claims.self_improvement(_commands(0.0), n_boot=500)["sayplan"]["verdict"] == "cannot tell"
+    assert claims.self_improvement(_commands(0.0), "inter_llm", n_boot=500)["sayplan"]["verdict"] == "cannot tell"
 
 
 def _inferences(acc_by_sigma: dict[float, float], n: int = 30) -> list[dict]:
@@ -62,7 +62,7 @@ def test_missions_needed_for_a_10_percent_difference():
     rows = [{"planner": "sayplan", "scene": "s", "mission": f"m{i}", "m_overall": 100.0} for i in range(6)]
     rows += [{"planner": "inter_llm", "scene": "s", "mission": f"m{i}", "m_overall": 100.0 - 20 * (i % 2)}
              for i in range(6)]
-    v = claims.missions_needed(rows)["sayplan"]
+    v = claims.missions_needed(rows, "inter_llm")["sayplan"]
     sd = math.sqrt(6 * 100 / 5)  # deviations of ±10 around the mean 10, ddof = 1
     assert v["sd_diff"] == pytest.approx(sd)
     assert v["n_needed"] == math.ceil(((1.959964 + 0.841621) * sd / 10.0) ** 2) == 10

@@ -26,6 +26,8 @@ from interllm.metrics.compute import (
     mission_rows,
     read_csv,
 )
+from interllm.metrics.planner_info import PlannerTableError
+from interllm.planners.base import shown_planners
 from interllm.stages.aggregate import write_metrics
 
 SCENE = {"category": {"apple_1": "apple", "bread_1": "bread", "laptop_1": "laptop", "mug_1": "mug",
@@ -172,6 +174,7 @@ def test_aggregate_writes_tables(tmp_path, cfg):
     base.planner = "sayplan"
     base.commands[1].actions[2].collisions = 5  # +3 collisions -> +30 on obj 3
     write_json(tmp_path / "runs" / "sayplan" / "s0" / "m000.json", base.to_dict())
+    write_json(tmp_path / "runs" / "planners.json", shown_planners(["inter_llm", "sayplan"]))
     out = write_metrics(tmp_path / "runs", tmp_path / "scenes", cfg, tmp_path / "metrics")
     assert out["planners"]["inter_llm"]["m_overall"] == pytest.approx(562)
     assert out["planners"]["sayplan"]["m_overall"] == pytest.approx(592)
@@ -202,6 +205,9 @@ def test_aggregate_errors_name_the_fix(tmp_path):
     from interllm.io import write_json
     write_json(tmp_path / "runs" / "inter_llm" / "s9" / "m000.json", {**record().to_dict(), "scene_id": "s9"})
     with pytest.raises(MetricsInputError, match="scene.json"):
+        write_metrics(tmp_path / "runs", tmp_path / "scenes", ExperimentConfig(), tmp_path / "m")
+    write_json(tmp_path / "scenes" / "s9" / "scene.json", {"id": "s9", "objects": []})
+    with pytest.raises(PlannerTableError, match=r"runs/planners.json is missing: the missions stage writes it"):
         write_metrics(tmp_path / "runs", tmp_path / "scenes", ExperimentConfig(), tmp_path / "m")
 
 

@@ -1,5 +1,5 @@
 """Deliveries first: the counting of replacements, delivered and cost per delivered beside
-m_overall, the position between the nothing and optimal references, the delivery check of the
+m_overall, the position between the two anchors (nothing, optimal), the delivery check of the
 claims, the γ_obj sensitivity and its break-even, candidate diversity, deliverable slots and the
 encoding pairs of a multirun; worked out by hand on hand-built records and tables."""
 
@@ -16,9 +16,9 @@ from interllm.config import from_dict
 from interllm.core.actions import Action
 from interllm.core.records import CommandRecord, GoalRecord, MissionRecord
 from interllm.io import write_json
-from interllm.metrics import claims, deliveries
+from interllm.metrics import claims, deliveries, planner_info
 from interllm.metrics.compute import Gammas, mission_rows
-from interllm.planners import PLANNERS
+from interllm.planners.base import shown_planners
 from interllm.stages.aggregate import write_metrics
 
 G = Gammas(10.0, 100.0, 100.0)
@@ -26,17 +26,14 @@ SCENE = {"category": {"apple_1": "apple", "apple_2": "apple", "bread_1": "bread"
          "furniture": {"apple_1": "counter_1", "apple_2": "counter_2", "bread_1": "counter_1", "mug_1": "shelf_1"}}
 
 
+PLANNERS_RUN = ["inter_llm", "sayplan", "nothing", "optimal"]
+
+
 @pytest.fixture
-def references():
-    """``nothing`` and ``optimal`` registered as references (temporarily, when the registry lacks them)."""
-    added = []
-    for name in (deliveries.NOTHING, deliveries.OPTIMAL):
-        if name not in PLANNERS:
-            PLANNERS.register(name, label=f"{name} (reference)", reference=True)(object)
-            added.append(name)
-    yield
-    for name in added:
-        PLANNERS.unregister(name)
+def anchors():
+    """The planner table the runs of these tests would record: ``nothing`` and ``optimal`` anchors."""
+    with planner_info.shown(planner_info.PlannerTable.from_json(shown_planners(PLANNERS_RUN), "test")) as t:
+        yield t
 
 
 def _breakfast(actions, final, n=2) -> CommandRecord:
@@ -90,7 +87,7 @@ def _pm(planner, ms, fulfilled=None, cc=0.0, t=0.0, d=0.0):
             for i, m in enumerate(ms)]
 
 
-def test_position_is_0_for_nothing_1_for_optimal_and_between_for_a_planner(references):
+def test_position_is_0_for_nothing_1_for_optimal_and_between_for_a_planner(anchors):
     nothing = _pm("nothing", [1800.0] * 6)
     optimal = _pm("optimal", [600.0, 620.0, 580.0, 610.0, 590.0, 600.0])
     mid = _pm("inter_llm", [1200.0, 1250.0, 1150.0, 1180.0, 1220.0, 1200.0])  # Σ 7200; Σ null 10800, Σ opt 3600
@@ -109,7 +106,7 @@ def test_position_is_0_for_nothing_1_for_optimal_and_between_for_a_planner(refer
     # without the optimal reference: no position, still the comparison with doing nothing
     pos = deliveries.positions(nothing + mid, n_boot=300)
     assert "position" not in pos["inter_llm"] and pos["inter_llm"]["below_nothing"] is True
-    assert deliveries.references_info(["inter_llm", "nothing"])["missing"] == ["optimal"]
+    assert deliveries.anchors_info(["inter_llm", "nothing"])["missing"] == ["optimal"]
 
 
 def test_delivered_and_cost_per_delivered_and_their_paired_differences():
@@ -120,16 +117,16 @@ def test_delivered_and_cost_per_delivered_and_their_paired_differences():
     assert dl["inter_llm"]["exec_cost_per_delivered"] == pytest.approx(6 * (10 + 50 + 20) / 18)
     c = deliveries.paired_comparisons(rows, "inter_llm", n_boot=300)["inter_llm_vs_sayplan"]
     assert c["m_overall_diff"] == pytest.approx(-200.0) and c["delivered_diff"] == pytest.approx(-2.0)
-    assert c["delivered_diff_ci_hi"] < 0 and c["n_pairs"] == 6 and c["baseline_reference"] is False
+    assert c["delivered_diff_ci_hi"] < 0 and c["n_pairs"] == 6 and c["baseline_anchor"] is False
 
 
 # ---- 4. claims -----------------------------------------------------------------------------------
 def _metrics(imp_lo, imp_hi, dl_lo, dl_hi):
-    return {"planners": {"inter_llm": {}, "sayplan": {}, "optimal": {"reference": True}},
+    return {"planners": {"inter_llm": {}, "sayplan": {}, "optimal": {"anchor": True}},
             "improvement": {"inter_llm_vs_sayplan": {"pct": (imp_lo + imp_hi) / 2, "ci_lo": imp_lo, "ci_hi": imp_hi}},
             "comparisons": {"inter_llm_vs_sayplan": {"baseline": "sayplan", "delivered_diff": (dl_lo + dl_hi) / 2,
                                                      "delivered_diff_ci_lo": dl_lo, "delivered_diff_ci_hi": dl_hi},
-                            "inter_llm_vs_optimal": {"baseline": "optimal", "baseline_reference": True,
+                            "inter_llm_vs_optimal": {"baseline": "optimal", "baseline_anchor": True,
                                                      "delivered_diff": -5.0, "delivered_diff_ci_lo": -6.0,
                                                      "delivered_diff_ci_hi": -4.0}}}
 
@@ -143,7 +140,7 @@ def test_the_delivery_check_flips_a_lower_m_overall_bought_by_delivering_less(dl
     assert "does not hold: lower m_overall by delivering fewer objects" in claims.FEWER
 
 
-def test_references_are_not_claimants():
+def test_anchors_are_not_claimants():
     m = _metrics(20.0, 40.0, -1.0, 1.0)
     m["improvement"]["inter_llm_vs_optimal"] = {"pct": -50.0, "ci_lo": -60.0, "ci_hi": -40.0}  # worse than optimal
     o = claims.ordering(m)
@@ -151,7 +148,7 @@ def test_references_are_not_claimants():
     assert set(claims.improvement_30(m)) == {"sayplan"}
     rows = [{"planner": p, "scene": "s", "mission": f"m{i}", "m_overall": 100.0 + i * (p == "optimal")}
             for p in ("inter_llm", "sayplan", "optimal") for i in range(6)]
-    assert set(claims.missions_needed(rows, exclude={"optimal"})) == {"sayplan"}
+    assert set(claims.missions_needed(rows, "inter_llm", exclude={"optimal"})) == {"sayplan"}
 
 
 # ---- 5. γ_obj ----------------------------------------------------------------------------------
@@ -174,10 +171,10 @@ def test_break_even_gamma_obj_on_a_constructed_example():
     for i in range(6):
         rows += _slots("inter_llm", f"m{i}", 1, 200.0 + (i % 2)) + _slots("sayplan", f"m{i}", 3, 400.0 / 3 + (i % 2))
     s = deliveries.gamma_obj_sensitivity(rows, gamma_nav=10.0, gamma_man=100.0, gammas=[50.0, 100.0, 500.0],
-                                          reference="inter_llm", n_boot=300)
+                                          judge="inter_llm", n_boot=300)
     c = s["comparisons"]["inter_llm_vs_sayplan"]
     assert c["exec_diff"] == pytest.approx(200.0) and c["undelivered_diff"] == pytest.approx(-2.0)
-    assert c["break_even"] == pytest.approx(100.0) and c["reference_lower_above"] is True
+    assert c["break_even"] == pytest.approx(100.0) and c["judged_lower_above"] is True
     assert c["by_gamma"]["100"]["diff"] == pytest.approx(0.0, abs=1e-9)
     assert c["by_gamma"]["50"]["diff"] == pytest.approx(100.0) and c["by_gamma"]["500"]["diff"] == pytest.approx(-800.0)
     assert s["planners"]["inter_llm"]["m_overall"]["500"] == pytest.approx(3 * 200.5 + 500.0)
@@ -207,7 +204,7 @@ def test_candidate_diversity_share():
     assert d["candidates_per_command"] == pytest.approx(5 / 3)
 
 
-# ---- the aggregate stage and the report with the references -------------------------------------
+# ---- the aggregate stage and the report with the anchors ----------------------------------------
 def _scene_file(root):
     write_json(root / "scenes" / "s0" / "scene.json",
                {"id": "s0", "objects": [{"id": o, "category": c, "furniture": SCENE["furniture"][o]}
@@ -224,8 +221,9 @@ def _mission(planner, i, objs):
 
 
 @pytest.fixture
-def runs(tmp_path, references):
+def runs(tmp_path):
     _scene_file(tmp_path)
+    write_json(tmp_path / "runs" / "planners.json", shown_planners(PLANNERS_RUN))  # as the missions stage does
     plans = {"nothing": [], "optimal": ["apple_1", "bread_1"], "inter_llm": ["apple_1"], "sayplan": ["apple_1", "bread_1"]}
     for p, objs in plans.items():
         for i in range(6):
@@ -233,20 +231,21 @@ def runs(tmp_path, references):
     return tmp_path
 
 
-def test_aggregate_writes_deliveries_position_and_the_references(runs):
+def test_aggregate_writes_deliveries_position_and_the_anchors(runs):
     cfg = from_dict({"metrics": {"bootstrap_samples": 200, "gamma_obj_sensitivity": [100.0, 300.0]}})
     out = write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
     pl = out["planners"]
     assert pl["nothing"]["position"] == 0.0 and pl["optimal"]["position"] == 1.0
-    assert pl["nothing"]["reference"] is True and pl["inter_llm"]["reference"] is False
+    assert pl["nothing"]["anchor"] is True and pl["inter_llm"]["anchor"] is False
+    assert pl["optimal"]["label"] == "Optimal (anchor)" and pl["inter_llm"]["order"] == 2
     assert pl["nothing"]["delivered"] == 0 and pl["nothing"]["m_overall"] == pytest.approx(400.0)
     assert pl["inter_llm"]["delivered"] == 6 and pl["sayplan"]["delivered"] == 12
     assert pl["inter_llm"]["below_nothing"] is True
     assert pl["nothing"]["exec_cost_per_delivered"] is None  # nothing delivered: no cost per object
-    assert set(out["improvement"]) == {"inter_llm_vs_sayplan"}  # references are not baselines
+    assert set(out["improvement"]) == {"inter_llm_vs_sayplan"}  # anchors are not baselines
     assert out["comparisons"]["inter_llm_vs_sayplan"]["delivered_diff"] == -1.0
-    assert out["comparisons"]["inter_llm_vs_optimal"]["baseline_reference"] is True
-    assert out["references"] == {"flagged": ["nothing", "optimal"], "missing": []}
+    assert out["comparisons"]["inter_llm_vs_optimal"]["baseline_anchor"] is True
+    assert out["anchors"] == {"flagged": ["nothing", "optimal"], "missing": []}
     assert out["gamma_obj_sensitivity"]["gammas"] == [100.0, 300.0]
     assert out["candidate_diversity"]["inter_llm"]["share"] == 1.0
     # Inter-LLM is cheaper per mission than SayPlan by leaving bread_1: the claim does not hold
@@ -268,7 +267,7 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
     assert head.startswith("Headline: objects delivered, m_overall and position")
     assert md.index("## Headline") < md.index("## The paper's claims") < md.index("## Summary per planner")
     assert "| planner | missions | delivered | delivered / mission [CI] | m_overall / mission [CI] | position [CI] |" in md
-    assert "0 (reference)" in head and "1 (reference)" in head
+    assert "0 (anchor)" in head and "1 (anchor)" in head and "| Optimal (anchor) |" in head
     assert "9 of 12 slots asked (75%) can be fulfilled at all" in head
     optimal = re.search(r"The optimal reference delivered (\d+) of the 9 fulfillable slots \((.*?)\)\.", head)
     assert optimal, head
@@ -276,7 +275,7 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
     claims_part = md.split("## The paper's claims")[1].split("## ")[0]
     assert claims.FEWER in claims_part
     assert "## Sensitivity to γ_obj" in md and "## Candidate diversity" in md
-    # without the references' runs, no position column: the report says why
+    # without the anchors' runs, no position column: the report says why
     for p in ("nothing", "optimal"):
         for f in (runs / "runs" / p / "s0").iterdir():
             f.unlink()
@@ -284,7 +283,7 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
     write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
     md = build_report(runs / "metrics", runs / "scenes", runs / "runs", runs / "report", cfg)["markdown"].read_text()
     head = md.split("## ")[1]
-    assert "position [CI]" not in head and "No runs of the `nothing` and `optimal` references" in head
+    assert "position [CI]" not in head and "No runs of the `nothing` and `optimal` anchors" in head
     assert "feasibility.json could not be read" in head
 
 

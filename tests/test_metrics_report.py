@@ -11,6 +11,7 @@ from interllm.core.records import CommandRecord, CommandSummary, CostInference, 
 from interllm.core.results import ActionResult, man_cost, nav_cost
 from interllm.io import write_json
 from interllm.metrics.compute import read_csv
+from interllm.planners.base import shown_planners
 from interllm.stages.aggregate import write_metrics
 
 PLANNERS = {"inter_llm": 0.6, "sayplan": 1.4, "moma_llm": 1.0}  # cost scale: inter_llm cheapest
@@ -93,6 +94,7 @@ def experiment(tmp_path_factory):
                 write_json(root / "runs" / planner / sid / f"m{m:03d}.json",
                            _record(planner, sid, f"m{m:03d}", scale, rng))
     (root / "runs" / "inter_llm" / "s0" / "m000.mcap").write_bytes(b"\x89MCAP0\r\n")
+    write_json(root / "runs" / "planners.json", shown_planners(PLANNERS))  # as the missions stage does
     cfg = from_dict({"metrics": {"bootstrap_samples": 300}})
     return root, cfg
 
@@ -164,7 +166,7 @@ def test_the_ordering_is_judged_by_the_paired_intervals_not_the_mean_rank(lo, hi
 
     metrics = {"planners": {"inter_llm": {"m_overall": 100.0}, "sayplan": {"m_overall": 101.0}},
                "improvement": {"inter_llm_vs_sayplan": {"pct": 1.0, "ci_lo": lo, "ci_hi": hi}}}
-    assert verdict in ordering_sentence(metrics)  # Inter-LLM has the lowest mean in every case
+    assert verdict in ordering_sentence(metrics, "inter_llm")  # Inter-LLM has the lowest mean in every case
 
 
 def test_estimate_variants_are_paired_against_this_run(experiment):

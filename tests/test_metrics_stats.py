@@ -55,7 +55,7 @@ def test_ci_width_shrinks_with_level():
 
 def test_paired_improvement_by_hand():
     assert improvement_pct([80, 90], [100, 100]) == pytest.approx(15.0)
-    # the reference is exactly half of every baseline: every resample gives 50 %
+    # the judged planner is exactly half of every baseline: every resample gives 50 %
     base = [100.0, 220.0, 340.0, 90.0, 150.0]
     pct, lo, hi = paired_improvement([b / 2 for b in base], base, 500, 0.95, 3)
     assert (pct, lo, hi) == pytest.approx((50.0, 50.0, 50.0))

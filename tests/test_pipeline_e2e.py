@@ -92,6 +92,28 @@ def test_every_module_a_stage_loads_is_among_its_dvc_deps(quick_repo):
         assert f"pipeline/{stage}.py" in modules
 
 
+@pytest.mark.parametrize("module, reruns", [
+    ("interllm/metrics/compute.py", {"aggregate", "report"}),  # a metric formula: no re-simulation
+    ("interllm/metrics/summary_sections.py", {"report"}),  # a report section: the metrics stand
+    ("interllm/planners/moma_llm.py", {"candidates", "missions"}),  # a planner: its runs, not the scenes
+])
+def test_editing_a_module_leaves_every_stage_that_does_not_run_it_up_to_date(quick_repo, module, reruns):
+    """DVC re-runs what changed: a stage depends only on the code it runs (and aggregate and report
+    then re-run only if the missions' outputs changed, which `dvc status` cannot know beforehand)."""
+    repo, env, _ = quick_repo
+    path = repo / module
+    before = path.read_bytes()
+    try:
+        path.write_bytes(before + b"\n# edited by a test\n")
+        r = subprocess.run([str(BIN / "dvc"), "status", "--json"], cwd=repo, env=env, capture_output=True,
+                           text=True, timeout=300)
+    finally:
+        path.write_bytes(before)
+    assert r.returncode == 0, r.stderr
+    changed = {stage.rsplit(":", 1)[-1] for stage in json.loads(r.stdout)}
+    assert changed == reruns
+
+
 def test_the_real_model_answered(quick_repo):
     repo, _, _ = quick_repo
     calls = [json.loads(line) for line in (repo / "data" / "candidates" / "llm_calls.jsonl").read_text().splitlines()]

@@ -21,6 +21,7 @@ from interllm.config import ExperimentConfig, LLMConfig
 from interllm.core.actions import Action, State
 from interllm.core.results import ActionResult
 from interllm.planners import PLANNERS
+from interllm.planners.base import shown_planners
 from interllm.planners.runner import run_mission
 from interllm.planning import oracle
 from interllm.planning.assignment import CommandSlots, Delivery, cheapest_assignment, cheapest_mission
@@ -132,12 +133,15 @@ def test_a_mission_plan_leaves_an_earlier_command_the_object_a_later_command_can
     assert [[d.obj for d in p] for p in plan.plans] == [["glasses"], ["book"]] and plan.deliveries == 2
 
 
-# ---- the reference planners ----------------------------------------------------------------
+# ---- the anchors (nothing, optimal) ----------------------------------------------------------------
 
 
-def test_references_are_registered_as_references():
-    assert PLANNERS.entry("nothing").meta.get("reference") and PLANNERS.entry("optimal").meta.get("reference")
-    assert not PLANNERS.entry("inter_llm").meta.get("reference")
+def test_the_anchors_are_registered_and_recorded_as_anchors():
+    assert PLANNERS.entry("nothing").meta.get("anchor") and PLANNERS.entry("optimal").meta.get("anchor")
+    assert not PLANNERS.entry("inter_llm").meta.get("anchor")
+    shown = shown_planners(["inter_llm", "nothing", "optimal"])  # what the missions stage writes beside the runs
+    assert [p for p, d in shown.items() if d["anchor"]] == ["nothing", "optimal"]
+    assert shown["inter_llm"] == {"label": "Inter-LLM (ours)", "color": "tab:green", "order": 2, "anchor": False}
 
 
 def test_nothing_does_nothing():

@@ -20,6 +20,9 @@ from interllm.core.results import ActionResult
 from interllm.errors import UserError
 
 SCHEMA_VERSION = 2  # bump when a field changes meaning or layout (2: cost inferences carry their ground truth)
+# beside the records in the missions stage's folder: how tables and figures show each planner that
+# ran and which are anchors ({name: {"label", "color", "order", "anchor"}}; planners.base.shown_planners)
+PLANNERS_FILE = "planners.json"
 
 
 class RecordError(UserError, ValueError):

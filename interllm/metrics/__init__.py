@@ -2,8 +2,9 @@
 
 - ``compute``: per-object/command/mission tables and m_overall; ``summary``: per planner means
   with bootstrap CIs; ``stats``: bootstrap CIs, paired planner comparison, semantic-similarity
-  accuracy; ``deliveries``: objects delivered, the position between the nothing and optimal
-  references, the γ_obj sensitivity and candidate diversity (it loads the planner registry);
+  accuracy; ``deliveries``: objects delivered, the position between the two anchors (doing
+  nothing, the optimal reference), the γ_obj sensitivity and candidate diversity; ``planner_info``:
+  how the runs show each planner and which are anchors (no planner code is loaded);
   ``manipulation``, ``capability``, ``claims``, ``llm_usage``, ``compare``.
 - The report (``report.build_report``; it pulls in matplotlib): the document model ``doc``, the
   sections ``delivery_sections``, ``summary_sections``, ``paper_tables``, ``figure_sections`` and

@@ -59,7 +59,7 @@ def equivalent_error(accuracy: float, sweep: Sequence[tuple[float, float]]) -> O
 
 
 def paying_errors(points: Sequence[tuple[float, float, float]]) -> tuple[list[float], list[float]]:
-    """(the swept errors at which the reference planner's paired improvement CI lies above 0, those
+    """(the swept errors at which the judged planner's paired improvement CI lies above 0, those
     at which it does not); points: (error, ci_lo, ci_hi)."""
     above = [e for e, lo, _ in sorted(points) if math.isfinite(lo) and lo > 0]
     return above, [e for e, _, _ in sorted(points) if e not in above]

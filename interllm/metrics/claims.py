@@ -1,8 +1,9 @@
 """The paper's claims, each beside our figure with its CI and a verdict (holds / does not hold /
 cannot tell), and the number of missions a 10% paired difference needs.
 
-Reference planners (``metrics.json`` planners flagged ``"reference": true``: doing nothing, the
-optimal reference) are shown beside the claims but are never claimants nor baselines.
+The judged planner (``metrics.judge``, Inter-LLM by default) makes the claims. Anchors
+(``metrics.json`` planners flagged ``"anchor": true``: doing nothing, the optimal reference) are
+shown beside the claims but are never claimants nor baselines.
 
 - ``ordering``: Inter-LLM has the lowest m_overall per mission. Per baseline: holds when the
   paired improvement's CI lies above 0, does not hold when it lies below 0, else cannot tell; judged
@@ -15,8 +16,8 @@ optimal reference) are shown beside the claims but are never claimants nor basel
   when 30% lies in the CI; does not hold when the CI lies below 30%; "exceeds" above it; the same
   delivery check turns "holds" / "exceeds" into "does not hold: ... by delivering fewer objects".
 - ``self_improvement``: Inter-LLM improves along a mission. Measured as a difference in
-  differences over the same missions: (reference − baseline) m_overall per object of the last
-  command minus that of the first command; holds when its CI lies below 0 (the reference gains
+  differences over the same missions: (judged − baseline) m_overall per object of the last
+  command minus that of the first command; holds when its CI lies below 0 (the judged planner gains
   on the baseline as the mission goes on).
 - ``sigma_rise``: Table II's accuracy rises with σ. The least-squares slope of
   accuracy-when-answered on σ, with a bootstrap CI resampling the inferences within each σ;
@@ -51,9 +52,11 @@ def _num(v: Any) -> float:
 FEWER = "does not hold: lower m_overall by delivering fewer objects"
 
 
-def references(metrics: Mapping) -> set[str]:
-    """The planners ``metrics.json`` flags as references (never claimants, never baselines)."""
-    return {p for p, d in metrics.get("planners", {}).items() if isinstance(d, Mapping) and d.get("reference")}
+def anchors(metrics: Mapping) -> set[str]:
+    """The planners ``metrics.json`` flags as anchors (never claimants, never baselines; a file written
+    before the anchors had their name flags them "reference")."""
+    return {p for p, d in metrics.get("planners", {}).items()
+            if isinstance(d, Mapping) and d.get("anchor", d.get("reference"))}
 
 
 def deliveries(metrics: Mapping) -> dict[str, tuple[float, float, float]]:
@@ -71,8 +74,8 @@ def delivers_fewer(delivered: tuple[float, float, float] | None) -> bool:
 
 def ordering(metrics: Mapping) -> dict:
     """{verdict, improvements {baseline: (pct, lo, hi)}, deliveries {baseline: (diff, lo, hi)},
-    verdicts {baseline: verdict}} over the non-reference baselines (module doc)."""
-    refs = references(metrics)
+    verdicts {baseline: verdict}} over the baselines (anchors aside) (module doc)."""
+    refs = anchors(metrics)
     imp = {k.split("_vs_", 1)[1]: (_num(v.get("pct")), _num(v.get("ci_lo")), _num(v.get("ci_hi")))
            for k, v in metrics.get("improvement", {}).items()}
     imp = {b: v for b, v in imp.items() if b not in refs}
@@ -97,7 +100,7 @@ def ordering(metrics: Mapping) -> dict:
 
 
 def improvement_30(metrics: Mapping) -> dict[str, dict]:
-    """Per non-reference baseline: {pct, lo, hi, verdict} against the paper's 30%, with the
+    """Per baseline (anchors aside): {pct, lo, hi, verdict} against the paper's 30%, with the
     delivery check (module doc)."""
     o = ordering(metrics)
     out = {}
@@ -124,22 +127,22 @@ def _per_object(per_command: Iterable[Mapping]) -> dict[tuple, dict[int, float]]
     return out
 
 
-def self_improvement(per_command: Iterable[Mapping], reference: str = "inter_llm", n_boot: int = 2000,
+def self_improvement(per_command: Iterable[Mapping], judge: str, n_boot: int = 2000,
                      ci: float = 0.95, seed: int = 0, exclude: Iterable[str] = ()) -> dict[str, dict]:
-    """Per baseline (planners in ``exclude``, the references, left out): {did, lo, hi, n, verdict}:
+    """Per baseline (planners in ``exclude``, the anchors, left out): {did, lo, hi, n, verdict}:
     the difference in differences (module doc) [m_overall per object]."""
     po = _per_object(per_command)
     out = {}
-    for base in sorted({k[0] for k in po} - {reference} - set(exclude)):
+    for base in sorted({k[0] for k in po} - {judge} - set(exclude)):
         d = []
         for (p, s, m), cmds in sorted(po.items()):
-            if p != reference or (base, s, m) not in po or len(cmds) < 2:
+            if p != judge or (base, s, m) not in po or len(cmds) < 2:
                 continue
             other = po[(base, s, m)]
             first, last = min(cmds), max(cmds)
             if first in other and last in other:
                 d.append((cmds[last] - other[last]) - (cmds[first] - other[first]))
-        mean, lo, hi = bootstrap_mean_ci(d, n_boot, ci, bootstrap_seed(seed, f"self_improvement:{reference}:{base}"))
+        mean, lo, hi = bootstrap_mean_ci(d, n_boot, ci, bootstrap_seed(seed, f"self_improvement:{judge}:{base}"))
         verdict = "cannot tell" if not (math.isfinite(lo) and math.isfinite(hi)) else \
             "holds" if hi < 0 else "does not hold" if lo > 0 else "cannot tell"
         out[base] = {"did": mean, "lo": lo, "hi": hi, "n": len(d), "verdict": verdict}
@@ -175,20 +178,20 @@ def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot
     return {"slope": point, "lo": float(lo), "hi": float(hi), "n_sigma": len(sig), "verdict": verdict}
 
 
-def missions_needed(per_mission: Iterable[Mapping], reference: str = "inter_llm", effect: float = 0.10,
+def missions_needed(per_mission: Iterable[Mapping], judge: str, effect: float = 0.10,
                     exclude: Iterable[str] = ()) -> dict:
-    """Per baseline (planners in ``exclude``, the references, left out): {n_needed, sd_diff,
+    """Per baseline (planners in ``exclude``, the anchors, left out): {n_needed, sd_diff,
     base_mean, n_pairs} for a paired ``effect`` (share of the baseline's mean m_overall) at 80%
     power, α = 0.05 two-sided."""
     by: dict[str, dict[tuple, float]] = {}
     for r in per_mission:
         by.setdefault(str(r["planner"]), {})[(str(r["scene"]), str(r["mission"]))] = float(r["m_overall"])
     out = {}
-    for base in sorted(set(by) - {reference} - set(exclude)):
-        keys = sorted(set(by.get(reference, {})) & set(by[base]))
+    for base in sorted(set(by) - {judge} - set(exclude)):
+        keys = sorted(set(by.get(judge, {})) & set(by[base]))
         if len(keys) < MIN_CI_SAMPLES:
             continue
-        d = np.array([by[base][k] - by[reference][k] for k in keys])
+        d = np.array([by[base][k] - by[judge][k] for k in keys])
         base_mean = float(np.mean([by[base][k] for k in keys]))
         sd = float(np.std(d, ddof=1))
         n = math.ceil(((Z_ALPHA + Z_POWER) * sd / (effect * base_mean)) ** 2) if base_mean > 0 else float("nan")

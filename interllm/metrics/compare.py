@@ -101,7 +101,7 @@ def conclusions(metrics: dict) -> dict[str, str]:
     out: dict[str, str] = {}
     planners = metrics.get("planners", {})
     ranked = sorted((p for p in planners if _num(planners[p].get("m_overall"))
-                     and not planners[p].get("reference")),  # references are shown, never ranked
+                     and not planners[p].get("anchor", planners[p].get("reference"))),  # anchors are shown, never ranked
                     key=lambda p: (planners[p]["m_overall"], p))
     if ranked:
         out["ordering on mean m_overall (best first)"] = " < ".join(ranked)

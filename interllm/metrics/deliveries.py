@@ -1,5 +1,5 @@
 """Deliveries first: what a planner delivered, beside m_overall, and where it stands
-between doing nothing and the optimal reference.
+between the two anchors: doing nothing (``nothing``) and the optimal reference (``optimal``).
 
 m_overall charges an unfilled slot γ_man + γ_obj, so a planner that never acts scores
 n_slots · (γ_man + γ_obj) per mission, and a planner can lower its m_overall by trying less. These
@@ -10,12 +10,12 @@ metrics keep that visible:
 - **exec_cost_per_delivered**: execution cost per delivered object,
   Σ(γ_nav·cc + t_exe + d) / delivered [s / object] (γ_nav in s per collision, t_exe in simulated s,
   d in m counted as s, as in m_overall);
-- **comparisons**: paired differences (reference planner − other) per mission of m_overall [s] and
+- **comparisons**: paired differences (judged planner − other) per mission of m_overall [s] and
   of delivered [objects], with paired bootstrap CIs (missions resampled jointly);
 - **position** = (m_null − m) / (m_null − m_optimal) on the sums of m_overall over the missions all
   three ran, with a bootstrap CI resampling the missions jointly for the three planners: 0 = as
-  good as doing nothing (the ``nothing`` reference), 1 = as good as the optimal reference (the
-  ``optimal`` reference), negative = worse than doing nothing [dimensionless];
+  good as doing nothing (the ``nothing`` anchor), 1 = as good as the ``optimal`` anchor,
+  negative = worse than doing nothing [dimensionless];
 - **m_minus_nothing**: the paired difference m − m_null per mission [s] and whether its CI lies
   below 0 (``below_nothing``: the planner is significantly better than doing nothing);
 - **γ_obj sensitivity**: m_overall is linear in γ_obj, m(γ) = E + γ·U per mission with
@@ -27,9 +27,10 @@ metrics keep that visible:
 - **candidate diversity**: per planner with candidates, the share of commands whose candidates
   take different objects (at least two distinct sets of picked-up objects).
 
-Reference planners are those registered with ``meta["reference"] = True``
-(``interllm.planners.base.PLANNERS``); they are shown, never judged. The position needs exactly
-one of each kind: the runs named ``nothing`` and ``optimal``.
+The judged planner (``metrics.judge``) is compared with every other planner. Anchors are the
+planners the runs record as such (``planner_info``: registered with ``anchor=True``); they are
+shown, never judged. The position needs exactly one of each kind: the runs named ``nothing`` and
+``optimal``.
 """
 
 from __future__ import annotations
@@ -42,21 +43,27 @@ import numpy as np
 
 from interllm.core.records import MissionRecord
 from interllm.core.seeding import bootstrap_seed
+from interllm.metrics import planner_info
 from interllm.metrics.stats import bootstrap_mean_ci, by_mission, joint_bootstrap, paired_mean_diff
-from interllm.planners import PLANNERS
 
-NOTHING, OPTIMAL = "nothing", "optimal"  # the two references of the normalised position
+NOTHING, OPTIMAL = "nothing", "optimal"  # the two anchors of the normalised position
 NAN = float("nan")
 
 
-def is_reference(planner: str) -> bool:
-    """Whether ``planner`` is registered as a reference (``meta["reference"]``); unregistered: no."""
-    return planner in PLANNERS and bool(PLANNERS.entry(planner).meta.get("reference"))
+def is_anchor(planner: str) -> bool:
+    """Whether the runs record ``planner`` as an anchor (``planner_info``); unknown: no."""
+    return planner_info.current().is_anchor(planner)
 
 
-def reference_planners(names: Iterable[str]) -> list[str]:
-    """The reference planners among ``names``, sorted."""
-    return sorted(p for p in set(names) if is_reference(p))
+def shown(planner: str) -> dict[str, Any]:
+    """What metrics.json keeps of how the runs show ``planner``: "anchor", "label", "color", "order"."""
+    t = planner_info.current()
+    return {"anchor": t.is_anchor(planner), **t.shown(planner)}
+
+
+def anchor_planners(names: Iterable[str]) -> list[str]:
+    """The anchors among ``names``, sorted."""
+    return sorted(p for p in set(names) if is_anchor(p))
 
 
 def exec_cost(row: Mapping, gamma_nav: float) -> float:
@@ -84,26 +91,26 @@ def planner_deliveries(per_mission: Iterable[Mapping], gamma_nav: float, n_boot:
     return out
 
 
-def paired_comparisons(per_mission: Iterable[Mapping], reference: str, n_boot: int = 2000, ci: float = 0.95,
+def paired_comparisons(per_mission: Iterable[Mapping], judge: str, n_boot: int = 2000, ci: float = 0.95,
                        seed: int = 0) -> dict[str, dict]:
-    """{"<reference>_vs_<other>": {"baseline", "baseline_reference" (bool), "n_pairs",
+    """{"<judge>_vs_<other>": {"baseline", "baseline_anchor" (bool), "n_pairs",
     "m_overall_diff" [s / mission], "delivered_diff" [objects / mission], each with "_ci_lo" and
-    "_ci_hi"}} for every other planner: reference − other on the (scene, mission) pairs both ran,
+    "_ci_hi"}} for every other planner: judged − other on the (scene, mission) pairs both ran,
     paired bootstrap CIs. A negative m_overall_diff is better; a negative delivered_diff is fewer
     objects delivered."""
     rows = list(per_mission)
     m, dl = by_mission(rows, "m_overall"), by_mission(rows, "n_fulfilled")
     out: dict[str, dict] = {}
-    if reference not in m:
+    if judge not in m:
         return out
-    for b in sorted(set(m) - {reference}):
-        keys = sorted(set(m[reference]) & set(m[b]))
-        d: dict[str, Any] = {"baseline": b, "baseline_reference": is_reference(b), "n_pairs": len(keys)}
+    for b in sorted(set(m) - {judge}):
+        keys = sorted(set(m[judge]) & set(m[b]))
+        d: dict[str, Any] = {"baseline": b, "baseline_anchor": is_anchor(b), "n_pairs": len(keys)}
         for name, tab in (("m_overall", m), ("delivered", dl)):
-            v, lo, hi = paired_mean_diff([tab[reference][k] for k in keys], [tab[b][k] for k in keys], n_boot, ci,
-                                         bootstrap_seed(seed, f"paired_diff:{name}:{reference}:{b}"))
+            v, lo, hi = paired_mean_diff([tab[judge][k] for k in keys], [tab[b][k] for k in keys], n_boot, ci,
+                                         bootstrap_seed(seed, f"paired_diff:{name}:{judge}:{b}"))
             d.update({f"{name}_diff": v, f"{name}_diff_ci_lo": lo, f"{name}_diff_ci_hi": hi})
-        out[f"{reference}_vs_{b}"] = d
+        out[f"{judge}_vs_{b}"] = d
     return out
 
 
@@ -114,15 +121,15 @@ def _position(m: np.ndarray, null: np.ndarray, opt: np.ndarray) -> Any:
 
 def position(m: Sequence[float], null: Sequence[float], opt: Sequence[float], n_boot: int = 2000,
              ci: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
-    """(position, lo, hi) of a planner's per-mission m_overall ``m`` between the nothing reference's
-    ``null`` (0) and the optimal reference's ``opt`` (1), the same missions in the same order; NaN
+    """(position, lo, hi) of a planner's per-mission m_overall ``m`` between the nothing anchor's
+    ``null`` (0) and the optimal anchor's ``opt`` (1), the same missions in the same order; NaN
     when Σ null = Σ opt. The CI resamples the missions jointly for the three."""
     return joint_bootstrap(_position, [m, null, opt], n_boot, ci, seed)
 
 
 def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0
               ) -> dict[str, dict]:
-    """Per planner (references included: nothing is 0 and optimal 1 by construction):
+    """Per planner (anchors included: nothing is 0 and optimal 1 by construction):
     {"position", "position_ci_lo", "position_ci_hi", "position_n_missions"} when runs of both
     ``nothing`` and ``optimal`` exist, and {"m_minus_nothing" [s / mission], "_ci_lo", "_ci_hi",
     "below_nothing" (True when the CI lies below 0, False when not, None without an interval)} when
@@ -148,11 +155,11 @@ def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.
     return out
 
 
-def references_info(planners: Iterable[str]) -> dict:
-    """{"flagged": the reference planners among ``planners``, "missing": which of nothing / optimal
+def anchors_info(planners: Iterable[str]) -> dict:
+    """{"flagged": the anchors among ``planners``, "missing": which of nothing / optimal
     have no runs (the position needs both)}."""
     ps = set(planners)
-    return {"flagged": reference_planners(ps), "missing": [r for r in (NOTHING, OPTIMAL) if r not in ps]}
+    return {"flagged": anchor_planners(ps), "missing": [r for r in (NOTHING, OPTIMAL) if r not in ps]}
 
 
 # ---- γ_obj sensitivity -----------------------------------------------------------------------
@@ -183,17 +190,17 @@ def _exec_undelivered(per_object: Iterable[Mapping], gamma_nav: float, gamma_man
 
 
 def gamma_obj_sensitivity(per_object: Iterable[Mapping], *, gamma_nav: float, gamma_man: float,
-                          gammas: Sequence[float], reference: str, n_boot: int = 2000, ci: float = 0.95,
+                          gammas: Sequence[float], judge: str, n_boot: int = 2000, ci: float = 0.95,
                           seed: int = 0) -> dict:
     """m_overall per mission recomputed from the per-slot rows at each γ_obj in ``gammas`` [s]
     (γ_nav [s / collision], γ_man [s]).
 
     Returns {"gammas": [...], "planners": {planner: {"exec" [E, s / mission], "undelivered"
     [U, slots / mission], "m_overall": {γ key: mean m(γ) [s / mission]}}}, "comparisons":
-    {"<reference>_vs_<other>": {"baseline", "baseline_reference", "n_pairs", "exec_diff" [s],
-    "undelivered_diff" [slots], "break_even" [s or None = never], "reference_lower_above" (True:
-    the reference is cheaper for γ_obj above the break-even, False: below it; None without one),
-    "by_gamma": {γ key: {"diff", "ci_lo", "ci_hi"} [s / mission, reference − other]}}}}."""
+    {"<judge>_vs_<other>": {"baseline", "baseline_anchor", "n_pairs", "exec_diff" [s],
+    "undelivered_diff" [slots], "break_even" [s or None = never], "judged_lower_above" (True:
+    the judged planner is cheaper for γ_obj above the break-even, False: below it; None without one),
+    "by_gamma": {γ key: {"diff", "ci_lo", "ci_hi"} [s / mission, judged − other]}}}}."""
     eu = _exec_undelivered(per_object, gamma_nav, gamma_man)
     gs = [float(g) for g in gammas]
     out: dict[str, Any] = {"gammas": gs, "planners": {}, "comparisons": {}}
@@ -201,11 +208,11 @@ def gamma_obj_sensitivity(per_object: Iterable[Mapping], *, gamma_nav: float, ga
         e = float(np.mean([v[0] for v in eu[p].values()]))
         u = float(np.mean([v[1] for v in eu[p].values()]))
         out["planners"][p] = {"exec": e, "undelivered": u, "m_overall": {gamma_key(g): e + g * u for g in gs}}
-    if reference not in eu:
+    if judge not in eu:
         return out
-    for b in sorted(set(eu) - {reference}):
-        keys = sorted(set(eu[reference]) & set(eu[b]))
-        er, ur = np.array([eu[reference][k][0] for k in keys]), np.array([eu[reference][k][1] for k in keys])
+    for b in sorted(set(eu) - {judge}):
+        keys = sorted(set(eu[judge]) & set(eu[b]))
+        er, ur = np.array([eu[judge][k][0] for k in keys]), np.array([eu[judge][k][1] for k in keys])
         eb, ub = np.array([eu[b][k][0] for k in keys]), np.array([eu[b][k][1] for k in keys])
         de = float(np.mean(er - eb)) if keys else NAN
         du = float(np.mean(ur - ub)) if keys else NAN
@@ -213,11 +220,11 @@ def gamma_obj_sensitivity(per_object: Iterable[Mapping], *, gamma_nav: float, ga
         by = {}
         for g in gs:  # the same resamples at every γ (and as ``paired_comparisons``' m_overall difference)
             v, lo, hi = paired_mean_diff(er + g * ur, eb + g * ub, n_boot, ci,
-                                         bootstrap_seed(seed, f"paired_diff:m_overall:{reference}:{b}"))
+                                         bootstrap_seed(seed, f"paired_diff:m_overall:{judge}:{b}"))
             by[gamma_key(g)] = {"diff": v, "ci_lo": lo, "ci_hi": hi}
-        out["comparisons"][f"{reference}_vs_{b}"] = {
-            "baseline": b, "baseline_reference": is_reference(b), "n_pairs": len(keys), "exec_diff": de,
-            "undelivered_diff": du, "break_even": be, "reference_lower_above": None if be is None else du < 0,
+        out["comparisons"][f"{judge}_vs_{b}"] = {
+            "baseline": b, "baseline_anchor": is_anchor(b), "n_pairs": len(keys), "exec_diff": de,
+            "undelivered_diff": du, "break_even": be, "judged_lower_above": None if be is None else du < 0,
             "by_gamma": by}
     return out
 
@@ -244,20 +251,21 @@ def candidate_diversity(records: Iterable[MissionRecord]) -> dict[str, dict]:
 
 # ---- everything the aggregate stage adds -------------------------------------------------------
 def delivery_metrics(records: Sequence[MissionRecord], per_object: Sequence[Mapping], per_mission: Sequence[Mapping],
-                     *, gamma_nav: float, gamma_man: float, gammas: Sequence[float], reference: str,
+                     *, gamma_nav: float, gamma_man: float, gammas: Sequence[float], judge: str,
                      n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> dict:
     """{"planners": {planner: fields to merge into metrics.json's planners (``planner_deliveries``,
-    ``positions``, "reference")}, "comparisons", "references", "gamma_obj_sensitivity",
+    ``positions``, "anchor" and how tables show it: "label", "color", "order")}, "comparisons",
+    "anchors", "gamma_obj_sensitivity",
     "candidate_diversity"} (module doc; γ_nav [s / collision], γ_man [s], ``gammas``: the γ_obj values
     of the sensitivity table [s])."""
     dl = planner_deliveries(per_mission, gamma_nav, n_boot, ci, seed)
     pos = positions(per_mission, n_boot, ci, seed)
-    planners = {p: {"reference": is_reference(p), **dl[p], **pos.get(p, {})} for p in sorted(dl)}
+    planners = {p: {**shown(p), **dl[p], **pos.get(p, {})} for p in sorted(dl)}
     return {"planners": planners,
-            "comparisons": paired_comparisons(per_mission, reference, n_boot, ci, seed),
-            "references": references_info(planners),
+            "comparisons": paired_comparisons(per_mission, judge, n_boot, ci, seed),
+            "anchors": anchors_info(planners),
             "gamma_obj_sensitivity": gamma_obj_sensitivity(per_object, gamma_nav=gamma_nav, gamma_man=gamma_man,
-                                                           gammas=gammas, reference=reference, n_boot=n_boot,
+                                                           gammas=gammas, judge=judge, n_boot=n_boot,
                                                            ci=ci, seed=seed),
             "candidate_diversity": candidate_diversity(records)}
 

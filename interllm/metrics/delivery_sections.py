@@ -1,8 +1,8 @@
 """The report's delivery sections, from metrics.json (``interllm.metrics.deliveries``):
 
 - ``headline_section``: the first table of the report: per planner objects delivered [CI],
-  m_overall [CI], the normalised position between doing nothing (0) and the optimal reference
-  (1) [CI], whether m_overall lies significantly below doing nothing's, and the execution cost
+  m_overall [CI], the normalised position between the anchors, doing nothing (0) and the optimal
+  reference (1) [CI], whether m_overall lies significantly below doing nothing's, and the execution cost
   per delivered object; the paired differences between the planners; the slots the scenes
   stage measured as deliverable (``feasibility.json``);
 - ``gamma_obj_section``: mean m_overall per mission at each γ_obj of
@@ -25,47 +25,58 @@ from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
 
 
 def _split(planners: Mapping[str, Mapping]) -> tuple[list[str], list[str]]:
-    """(claimants, references) in report order."""
-    refs = [p for p in ordered(planners) if planners[p].get("reference")]
+    """(claimants, anchors) in report order."""
+    refs = [p for p in ordered(planners) if planners[p].get("anchor", planners[p].get("reference"))]
     return [p for p in ordered(planners) if p not in refs], refs
 
 
 def _position_cell(p: str, d: Mapping) -> str:
     if p == NOTHING:
-        return "0 (reference)"
+        return "0 (anchor)"
     if p == OPTIMAL:
-        return "1 (reference)"
+        return "1 (anchor)"
     return ci(d.get("position"), d.get("position_ci_lo"), d.get("position_ci_hi"), 2)
 
 
 def _below_cell(p: str, d: Mapping) -> str:
     if p == NOTHING:
-        return "(reference)"
+        return "(anchor)"
     b = d.get("below_nothing")
     txt = ci(d.get("m_minus_nothing"), d.get("m_minus_nothing_ci_lo"), d.get("m_minus_nothing_ci_hi"), sign=True)
     return txt + (": yes" if b is True else ": no" if b is False else "")
 
 
-def missing_references_sentence(metrics: Mapping) -> Optional[str]:
-    """What the report leaves out when a reference has no runs (None when both have)."""
-    missing = metrics.get("references", {}).get("missing", [NOTHING, OPTIMAL])
+def _against_anchor(comparison: Mapping) -> bool:
+    """Whether a comparison's baseline is an anchor (listed after the others)."""
+    return bool(comparison.get("baseline_anchor", comparison.get("baseline_reference")))
+
+
+def _missing_anchors(metrics: Mapping) -> list[str]:
+    """Which of nothing / optimal have no runs (a metrics.json written before the anchors had their
+    name keeps them under "references")."""
+    return metrics.get("anchors", metrics.get("references", {})).get("missing", [NOTHING, OPTIMAL])
+
+
+def missing_anchors_sentence(metrics: Mapping) -> Optional[str]:
+    """What the report leaves out when an anchor has no runs (None when both have)."""
+    missing = _missing_anchors(metrics)
     if not missing:
         return None
     names = " and ".join(f"`{m}`" for m in missing)
     what = "the position column and the comparison with doing nothing are" if NOTHING in missing \
         else "the position column is"
-    return (f"No runs of the {names} reference{'s' if len(missing) > 1 else ''} in these results, so {what} left "
+    return (f"No runs of the {names} anchor{'s' if len(missing) > 1 else ''} in these results, so {what} left "
             f"out: add {names} to planner.names and rerun the missions stage (the position needs one run of "
             f"`{NOTHING}` and one of `{OPTIMAL}` on the same missions).")
 
 
 def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Sequence[str],
-                     reference: str = "inter_llm") -> None:
-    """The headline table (deliveries beside m_overall, the position between the references), the
+                     judge: str) -> None:
+    """The headline table (deliveries beside m_overall, the position between the anchors), the
     paired differences, and the deliverable slots of the scenes."""
     pl = metrics.get("planners", {})
     claimants, refs = _split(pl)
-    missing = metrics.get("references", {}).get("missing", [NOTHING, OPTIMAL])
+    missing = _missing_anchors(metrics)
     with_pos, with_null = not missing, NOTHING not in missing
     doc.h(2, "Headline: objects delivered, m_overall and position")
     doc.p("Delivered = distinct goal objects the robot put on a target furniture (Σ sr_obj; at most n per command "
@@ -76,7 +87,8 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
           "cheapest assignment over the mission on ground-truth costs, executed), below 0 = worse than doing "
           "nothing. m − m_nothing is the paired difference per mission; \"yes\" when its CI lies below 0 (significantly better than doing "
           "nothing). Cost per delivered = Σ(γ_nav·cc + t_exe + d) / delivered [s per object]. 95% bootstrap CIs "
-          "(paired ones resample the missions jointly). Reference planners are shown, never judged.")
+          "(paired ones resample the missions jointly). The anchors (doing nothing, the optimal reference) are "
+          "shown, never judged.")
     header = ["planner", "missions", "delivered", "delivered / mission [CI]", "m_overall / mission [CI]"]
     header += ["position [CI]"] if with_pos else []
     header += ["cost / delivered [s]"]
@@ -84,7 +96,7 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
     rows = []
     for p in claimants + refs:
         d = pl[p]
-        row = [plots.label(p) + (" (reference)" if p in refs and "reference" not in plots.label(p) else ""),
+        row = [plots.label(p) + (" (anchor)" if p in refs and "anchor" not in plots.label(p) else ""),
                str(d.get("n_missions")), f"{d.get('delivered', d.get('n_fulfilled'))}/{d.get('n_objects')}",
                ci(d.get("delivered_per_mission"), d.get("delivered_per_mission_ci_lo"),
                   d.get("delivered_per_mission_ci_hi"), 2),
@@ -94,18 +106,18 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
         row += [_below_cell(p, d)] if with_null else []
         rows.append(row)
     doc.table(header, rows)
-    note = missing_references_sentence(metrics)
+    note = missing_anchors_sentence(metrics)
     if note:
         doc.p(note)
     comps = metrics.get("comparisons", {})
     if comps:
-        doc.p(f"Paired differences per mission, {plots.label(reference)} − other planner, on the missions both ran "
+        doc.p(f"Paired differences per mission, {plots.label(judge)} − other planner, on the missions both ran "
               "(negative m_overall: cheaper; negative delivered: fewer objects):")
         crow = []
-        for k in sorted(comps, key=lambda k: (bool(comps[k].get("baseline_reference")), k)):
+        for k in sorted(comps, key=lambda k: (_against_anchor(comps[k]), k)):
             c = comps[k]
             b = str(c.get("baseline", k.split("_vs_", 1)[1]))
-            crow.append([f"{plots.label(reference)} − {plots.label(b)}", str(c.get("n_pairs")),
+            crow.append([f"{plots.label(judge)} − {plots.label(b)}", str(c.get("n_pairs")),
                          ci(c.get("delivered_diff"), c.get("delivered_diff_ci_lo"), c.get("delivered_diff_ci_hi"), 2,
                             sign=True),
                          ci(c.get("m_overall_diff"), c.get("m_overall_diff_ci_lo"), c.get("m_overall_diff_ci_hi"),
@@ -187,9 +199,9 @@ def feasibility_sentence(scenes_dir: Path, scene_ids: Sequence[str], planners: M
 
 
 # ---- γ_obj -----------------------------------------------------------------------------------
-def break_even_text(c: Mapping, reference: str) -> str:
+def break_even_text(c: Mapping, judge: str) -> str:
     """"γ_obj = 154: Inter-LLM cheaper above it" or "never: ... at every γ_obj ≥ 0"."""
-    ref, b = plots.label(reference), plots.label(str(c.get("baseline")))
+    ref, b = plots.label(judge), plots.label(str(c.get("baseline")))
     be = c.get("break_even")
     if be is None:
         de = num_or_nan(c.get("exec_diff"))
@@ -197,12 +209,12 @@ def break_even_text(c: Mapping, reference: str) -> str:
             return "–"
         who = ref if de < 0 else b if de > 0 else None
         return "never" + (f" ({who} cheaper at every γ_obj ≥ 0)" if who else " (equal at every γ_obj)")
-    above = c.get("reference_lower_above")
+    above = c.get("judged_lower_above", c.get("reference_lower_above"))
     return (f"{fnum(be)}: {ref} cheaper " + ("above" if above else "below") + f" it, {b} "
             + ("below" if above else "above"))
 
 
-def gamma_obj_section(doc: Doc, metrics: Mapping, reference: str = "inter_llm") -> None:
+def gamma_obj_section(doc: Doc, metrics: Mapping, judge: str) -> None:
     """Each planner's mean m_overall per mission at each γ_obj, the paired differences and break-evens."""
     s = metrics.get("gamma_obj_sensitivity", {})
     gs = s.get("gammas") or []
@@ -224,18 +236,18 @@ def gamma_obj_section(doc: Doc, metrics: Mapping, reference: str = "inter_llm") 
     doc.table(header, rows)
     comps = s.get("comparisons", {})
     if comps:
-        doc.p(f"Paired difference {plots.label(reference)} − other per mission at each γ_obj [CI] (negative: "
-              f"{plots.label(reference)} cheaper) and the break-even γ_obj where the mean difference "
+        doc.p(f"Paired difference {plots.label(judge)} − other per mission at each γ_obj [CI] (negative: "
+              f"{plots.label(judge)} cheaper) and the break-even γ_obj where the mean difference "
               "Δ(γ) = Δ_E + γ·Δ_U crosses 0 (\"never\" when it does not for γ_obj ≥ 0):")
         crow = []
-        for k in sorted(comps, key=lambda k: (bool(comps[k].get("baseline_reference")), k)):
+        for k in sorted(comps, key=lambda k: (_against_anchor(comps[k]), k)):
             c = comps[k]
             by = c.get("by_gamma", {})
-            crow.append([f"{plots.label(reference)} − {plots.label(str(c.get('baseline')))}", str(c.get("n_pairs")),
+            crow.append([f"{plots.label(judge)} − {plots.label(str(c.get('baseline')))}", str(c.get("n_pairs")),
                          f"{fnum(c.get('exec_diff'))} + γ·({fnum(c.get('undelivered_diff'), 2)})"]
                         + [ci(by.get(gamma_key(g), {}).get("diff"), by.get(gamma_key(g), {}).get("ci_lo"),
                               by.get(gamma_key(g), {}).get("ci_hi"), sign=True) for g in gs]
-                        + [break_even_text(c, reference)])
+                        + [break_even_text(c, judge)])
         doc.table(["comparison", "pairs", "Δ(γ) = Δ_E + γ·Δ_U"] + [f"γ_obj = {gamma_key(g)}" for g in gs]
                   + ["break-even γ_obj"], crow)
 

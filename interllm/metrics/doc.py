@@ -11,7 +11,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, Optional
 
-from interllm.planners import PLANNERS
+from interllm.metrics import planner_info
 
 
 class Doc:
@@ -120,10 +120,9 @@ def pct(v: Any) -> str:
 
 
 def ordered(planners: Iterable[str]) -> list[str]:
-    """Registered planners in their report order (baselines first), then any others by name."""
-    ps = set(planners)
-    known = sorted((p for p in ps if p in PLANNERS), key=lambda p: (PLANNERS.entry(p).meta.get("order", 99), p))
-    return known + sorted(p for p in ps if p not in PLANNERS)
+    """Planners in their report order (baselines first, then the judged planner, then the anchors;
+    ``planner_info``), then any others by name."""
+    return planner_info.current().ordered(planners)
 
 
 def num_or_nan(v: Any) -> float:

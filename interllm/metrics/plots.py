@@ -14,7 +14,7 @@ from typing import Optional
 import numpy as np
 
 from interllm.io import check_inside, ensure_dir
-from interllm.planners import PLANNERS
+from interllm.metrics import planner_info
 from interllm.planning.similarity import path_overlap
 
 DPI = 100
@@ -40,13 +40,13 @@ def _save(fig, path: str | os.PathLike) -> Path:
 
 
 def label(planner: str) -> str:
-    """A planner's display label (from its registration)."""
-    return PLANNERS.label(planner)
+    """A planner's display label (``planner_info``: as the runs recorded it)."""
+    return planner_info.current().label(planner)
 
 
 def color(planner: str) -> str | None:
-    """A planner's colour in figures (from its registration; None: matplotlib's next)."""
-    return PLANNERS.entry(planner).meta.get("color") if planner in PLANNERS else None
+    """A planner's colour in figures (``planner_info``; None: matplotlib's next)."""
+    return planner_info.current().color(planner)
 
 
 def cumulative_figure(rows: Iterable[Mapping], path: str | os.PathLike) -> Path:
@@ -153,11 +153,11 @@ def _curve_and_star(ax, xs, vals, star, x_star, name: str, col) -> None:
                     color=line.get_color(), linestyle="none")
 
 
-def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: list[str], reference: str,
+def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: list[str], judge: str,
                       path: str | os.PathLike) -> Path:
     """The LLM-capability axis. Left: m_overall per mission [CI] of each planner against the oracle's
     error, with the model's m_overall marked at its equivalent error (by relevance accuracy).
-    Right: the reference planner's paired improvement [%, CI] over each baseline, the model's marked
+    Right: the judged planner's paired improvement [%, CI] over each baseline, the model's marked
     the same way. sweep: [(error, row)], model: a row (``report._source_row``); where: {"relevance":
     equivalent error or None, ...}."""
     plt = _plt()
@@ -172,12 +172,12 @@ def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: lis
     ax1.set_ylabel("m_overall per mission (lower is better)")
     ax1.set_title(f"stars: {model['source']} at its relevance-equivalent error", fontsize=9)
     ax1.legend(fontsize=8)
-    for b in [p for p in planners if p != reference]:
+    for b in [p for p in planners if p != judge]:
         vals = np.array([r["improvement"].get(b, nan3) for _, r in sweep], dtype=float)
         _curve_and_star(ax2, xs, vals, model["improvement"].get(b), x_model, f"vs {label(b)}", color(b))
     ax2.axhline(0.0, color="black", linewidth=0.8)
     ax2.set_xlabel("oracle error (share of random answers)")
-    ax2.set_ylabel(f"{label(reference)} improvement in m_overall [%]")
+    ax2.set_ylabel(f"{label(judge)} improvement in m_overall [%]")
     ax2.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, path)

@@ -5,10 +5,11 @@ base64) built from the files the aggregate stage wrote (``metrics.json``, ``per_
 ``build_report`` puts the sections in order; each comes from its module:
 
 - ``delivery_sections``: the headline table (objects delivered, m_overall, the position between
-  doing nothing and the optimal reference, cost per delivered object), the γ_obj sensitivity,
+  the anchors, doing nothing and the optimal reference, cost per delivered object), the γ_obj sensitivity,
   candidate diversity, the LLM requests per command;
 - ``summary_sections``: the paper's claims with the delivery check, the summary per planner with
-  the paired improvement and whether the paper's ordering (Inter-LLM lowest m_overall) holds, the
+  the paired improvement and whether the paper's ordering (the judged planner, Inter-LLM by
+  default, lowest m_overall) holds, the
   measured manipulation costs;
 - ``paper_tables``: the paper's Table III layout with our means beside the paper's numbers, and
   Table II (semantic accuracy per temperature);
@@ -33,6 +34,7 @@ from interllm.metrics import (
     delivery_sections,
     figure_sections,
     paper_tables,
+    planner_info,
     summary_sections,
     sweep_sections,
 )
@@ -46,7 +48,6 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
                  out_dir: str | os.PathLike, cfg: Any = None, *,
                  temperature_results: Sequence[tuple[str, str | os.PathLike]] = (),
                  m_results: Sequence[tuple[str, str | os.PathLike]] = (),
-                 reference: str = "inter_llm",
                  estimate_results: Sequence[tuple[str, str | os.PathLike]] = (),
                  oracle_results: Sequence[tuple[float, str | os.PathLike]] = (),
                  encoding_results: Sequence[tuple[str, str, str | os.PathLike]] = ()) -> dict[str, Path]:
@@ -60,6 +61,8 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     (llm.oracle_error, metrics_dir) pairs of an oracle sweep on the same missions;
     encoding_results: (group, variant, metrics_dir) of runs differing only in llm.oracle_costs and/or
     planner.cost_encoding (``sweep_sections.encoding_section``).
+    The judged planner and how each planner is shown (label, colour, order, anchor) come from
+    metrics.json (``settings.judge``, ``planners``): the report reads results, not planner code.
     Returns {"markdown", "html", "figures"} paths.
     """
     metrics_dir, out_dir = Path(metrics_dir), Path(out_dir)
@@ -68,6 +71,19 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
         raise MissingInputError(f"{mpath} is missing; run the 'aggregate' stage (interllm.stages.aggregate) "
                                 f"first or pass the folder holding metrics.json")
     metrics = read_json(mpath)
+    settings = metrics.get("settings", {})
+    judge = str(settings.get("judge", settings.get("reference", "")))  # "reference": before metrics.judge
+    with planner_info.shown(planner_info.PlannerTable.from_json(metrics.get("planners", {}), str(mpath))):
+        return _write_report(metrics, judge, metrics_dir, Path(scenes_dir), Path(runs_dir), out_dir, cfg,
+                             temperature_results=temperature_results, m_results=m_results,
+                             estimate_results=estimate_results, oracle_results=oracle_results,
+                             encoding_results=encoding_results)
+
+
+def _write_report(metrics: dict, judge: str, metrics_dir: Path, scenes_dir: Path, runs_dir: Path, out_dir: Path,
+                  cfg: Any, *, temperature_results, m_results, estimate_results, oracle_results,
+                  encoding_results) -> dict[str, Path]:
+    """``build_report``'s body, with the planner table in use."""
     per_object = read_csv(metrics_dir / "per_object.csv")
     per_command = read_csv(metrics_dir / "per_command.csv")
     cumulative = read_csv(metrics_dir / "cumulative.csv")
@@ -77,10 +93,10 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     doc = Doc()
     _title(doc, metrics.get("settings", {}))
 
-    delivery_sections.headline_section(doc, metrics, Path(scenes_dir), scene_ids, reference)
-    summary_sections.claims_section(doc, metrics, metrics_dir, [Path(d) for _, d in temperature_results], reference)
-    summary_sections.summary_section(doc, metrics, reference)
-    delivery_sections.gamma_obj_section(doc, metrics, reference)
+    delivery_sections.headline_section(doc, metrics, Path(scenes_dir), scene_ids, judge)
+    summary_sections.claims_section(doc, metrics, metrics_dir, [Path(d) for _, d in temperature_results], judge)
+    summary_sections.summary_section(doc, metrics, judge)
+    delivery_sections.gamma_obj_section(doc, metrics, judge)
     delivery_sections.diversity_section(doc, metrics)
     if (metrics_dir / "llm_usage.json").is_file():
         delivery_sections.llm_usage_section(doc, read_json(metrics_dir / "llm_usage.json"))
@@ -95,14 +111,14 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     figure_sections.run_logs_section(doc, runs_dir, out_dir)
 
     paper_tables.table_ii_section(doc, metrics_dir, temperature_results)
-    sweep_sections.m_ablation_section(doc, m_results, reference)
-    sweep_sections.estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], reference,
+    sweep_sections.m_ablation_section(doc, m_results, judge)
+    sweep_sections.estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], judge,
                                      cfg.planner.nav_estimate if cfg is not None else "this run's estimate")
     f = sweep_sections.capability_section(doc, metrics, [(float(e), Path(d)) for e, d in oracle_results], fig_dir,
-                                          reference)
+                                          judge)
     if f is not None:
         figures.append(f)
-    sweep_sections.encoding_section(doc, [(g, v, Path(d)) for g, v, d in encoding_results], metrics, reference)
+    sweep_sections.encoding_section(doc, [(g, v, Path(d)) for g, v, d in encoding_results], metrics, judge)
 
     ensure_dir(out_dir)
     md, ht = out_dir / "report.md", out_dir / "report.html"

@@ -128,23 +128,23 @@ def by_mission(per_mission: Iterable[Mapping], metric: str) -> dict[str, dict[tu
     return out
 
 
-def compare_planners(per_mission: Iterable[Mapping], reference: str = "inter_llm", metric: str = "m_overall",
+def compare_planners(per_mission: Iterable[Mapping], judge: str, metric: str = "m_overall",
                      n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> dict[str, dict]:
-    """Paired improvement of ``reference`` over every other planner on the (scene, mission) pairs
+    """Paired improvement of ``judge`` over every other planner on the (scene, mission) pairs
     both ran. Returns {baseline: {"pct", "ci_lo", "ci_hi", "n_pairs", "ref_mean", "base_mean"}}."""
     by: dict[str, dict[tuple[str, str], float]] = {}
     for r in per_mission:
         by.setdefault(str(r["planner"]), {})[(str(r["scene"]), str(r["mission"]))] = float(r[metric])
     out: dict[str, dict] = {}
-    if reference not in by:
+    if judge not in by:
         return out
     for base in sorted(by):
-        if base == reference:
+        if base == judge:
             continue
-        keys = sorted(set(by[reference]) & set(by[base]))
-        x = [by[reference][k] for k in keys]
+        keys = sorted(set(by[judge]) & set(by[base]))
+        x = [by[judge][k] for k in keys]
         y = [by[base][k] for k in keys]
-        pct, lo, hi = paired_improvement(x, y, n_boot, ci, bootstrap_seed(seed, f"paired:{reference}:{base}"))
+        pct, lo, hi = paired_improvement(x, y, n_boot, ci, bootstrap_seed(seed, f"paired:{judge}:{base}"))
         out[base] = {"pct": pct, "ci_lo": lo, "ci_hi": hi, "n_pairs": len(keys),
                      "ref_mean": float(np.mean(x)) if x else float("nan"),
                      "base_mean": float(np.mean(y)) if y else float("nan")}

@@ -12,38 +12,38 @@ from interllm.metrics.compute import read_csv
 from interllm.metrics.doc import Doc, ci, fnum, ordered, pct
 
 
-def ordering_sentence(metrics: Mapping, reference: str = "inter_llm") -> str:
-    """One sentence: does the paper's ordering (reference best on m_overall among the non-reference
+def ordering_sentence(metrics: Mapping, judge: str) -> str:
+    """One sentence: does the paper's ordering (the judged planner best on m_overall among the
     planners) hold? Judged as ``claims.ordering`` does: it holds when every paired improvement of
-    the reference has its CI above 0 and it does not deliver significantly fewer objects, does not
+    the judged planner has its CI above 0 and it does not deliver significantly fewer objects, does not
     hold when one has its CI below 0 (or the lower m_overall came from delivering fewer objects),
     and otherwise the runs cannot tell (the mean rank alone decides nothing)."""
-    refs = claims.references(metrics)
+    refs = claims.anchors(metrics)
     pl = {p: d for p, d in metrics.get("planners", {}).items() if p not in refs}
-    if reference not in pl or len(pl) < 2:
-        return (f"The paper's ordering ({plots.label(reference)} best on m_overall) cannot be judged: "
+    if judge not in pl or len(pl) < 2:
+        return (f"The paper's ordering ({plots.label(judge)} best on m_overall) cannot be judged: "
                 f"runs exist only for {sorted(pl)}.")
     ranked = sorted(pl, key=lambda p: (float("inf") if pl[p].get("m_overall") is None else pl[p]["m_overall"], p))
     figs = "; ".join(f"{plots.label(p)} {fnum(pl[p].get('m_overall'))} [{fnum(pl[p].get('m_overall_ci_lo'))}, "
                      f"{fnum(pl[p].get('m_overall_ci_hi'))}]" for p in ranked)
     o = claims.ordering(metrics)
-    imps = "; ".join(f"{plots.label(reference)} vs {plots.label(b)}: {fnum(v[0])}% [{fnum(v[1])}, {fnum(v[2])}]"
+    imps = "; ".join(f"{plots.label(judge)} vs {plots.label(b)}: {fnum(v[0])}% [{fnum(v[1])}, {fnum(v[2])}]"
                      for b, v in sorted(o["improvements"].items()))
     verdict = {"holds": "holds on our runs", "does not hold": "does not hold on our runs",
                claims.FEWER: "does not hold on our runs: its lower m_overall comes from delivering fewer objects",
                }.get(o["verdict"], "cannot be told on our runs (a paired CI includes 0 or has too few pairs)")
-    best = "the lowest" if ranked[0] == reference else "not the lowest"
-    return (f"The paper's ordering ({plots.label(reference)} best on m_overall per mission, judged by the paired "
+    best = "the lowest" if ranked[0] == judge else "not the lowest"
+    return (f"The paper's ordering ({plots.label(judge)} best on m_overall per mission, judged by the paired "
             f"CIs and the delivery check) {verdict}; its mean is {best}: {figs} (mean per mission, "
-            f"{len(pl)} planners, references aside; bootstrap CI)." + (f" Paired improvement: {imps}." if imps else ""))
+            f"{len(pl)} planners, anchors aside; bootstrap CI)." + (f" Paired improvement: {imps}." if imps else ""))
 
 
 def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
-                   temperature_dirs: Sequence[Path], reference: str) -> None:
+                   temperature_dirs: Sequence[Path], judge: str) -> None:
     """The paper's claims beside our figures, each with its CI, the paired delivered difference where
-    the claim is about m_overall, and a verdict (``metrics.claims``; references are not claimants)."""
-    ref = plots.label(reference)
-    refs = claims.references(metrics)
+    the claim is about m_overall, and a verdict (``metrics.claims``; anchors are not claimants)."""
+    ref = plots.label(judge)
+    refs = claims.anchors(metrics)
     doc.h(2, "The paper's claims")
     rows = []
     o = claims.ordering(metrics)
@@ -60,7 +60,7 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
         rows.append([f"{ref} improves m_overall by 30% over {plots.label(b)}",
                      f"{fnum(v['pct'])}% [{fnum(v['lo'])}, {fnum(v['hi'])}]", delivered(b), v["verdict"]])
     per_command = read_csv(metrics_dir / "per_command.csv") if (metrics_dir / "per_command.csv").is_file() else []
-    for b, v in sorted(claims.self_improvement(per_command, reference, exclude=refs).items()):
+    for b, v in sorted(claims.self_improvement(per_command, judge, exclude=refs).items()):
         rows.append([f"{ref} self-improves along the mission (vs {plots.label(b)}: gap of the last command minus "
                      f"the first, m_overall per object)", f"{fnum(v['did'])} [{fnum(v['lo'])}, {fnum(v['hi'])}] "
                      f"({v['n']} missions)", "–", v["verdict"]])
@@ -68,7 +68,7 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
     for d in [Path(x) for x in temperature_dirs if (Path(x) / "semantic_inferences.csv").is_file()] or [metrics_dir]:
         p = Path(d) / "semantic_inferences.csv"
         inf += read_csv(p) if p.is_file() else []
-    s = claims.sigma_rise(inf, reference)
+    s = claims.sigma_rise(inf, judge)
     rows.append(["Table II: semantic-similarity accuracy rises with σ (slope of accuracy when answered per unit σ)",
                  f"{fnum(s['slope'], 3)} [{fnum(s['lo'], 3)}, {fnum(s['hi'], 3)}] ({s['n_sigma']} σ values)", "–",
                  s["verdict"]])
@@ -77,7 +77,7 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
           "by delivering fewer objects and the claim does not hold.")
     doc.table(["claim", "ours [95% CI]", "delivered difference / mission [95% CI]", "verdict"], rows)
     per_mission = read_csv(metrics_dir / "per_mission.csv") if (metrics_dir / "per_mission.csv").is_file() else []
-    need = claims.missions_needed(per_mission, reference, exclude=refs)
+    need = claims.missions_needed(per_mission, judge, exclude=refs)
     if need:
         doc.p("Missions a paired 10% difference in m_overall needs at 80% power (α = 0.05, two-sided), from the "
               "measured spread of the per-mission differences: " + "; ".join(
@@ -85,12 +85,12 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
                   f"{v['n_pairs']} pairs here)" for b, v in sorted(need.items())) + ".")
 
 
-def summary_section(doc: Doc, metrics: Mapping, reference: str) -> None:
+def summary_section(doc: Doc, metrics: Mapping, judge: str) -> None:
     """Every per-planner figure, objects delivered and the cost per delivered object beside m_overall;
     failed LLM calls; the paired improvements."""
     pl = metrics.get("planners", {})
     doc.h(2, "Summary per planner")
-    doc.p(ordering_sentence(metrics, reference))
+    doc.p(ordering_sentence(metrics, judge))
     rows = []
     for p in ordered(pl):
         d = pl[p]

@@ -55,8 +55,8 @@ def paired_reduction(base_dir: Path, other_dir: Path, planner: str, label: str) 
     return len(keys), change, lo, hi
 
 
-def m_ablation_section(doc: Doc, m_results: Sequence[tuple[str, str | os.PathLike]], reference: str) -> None:
-    """``reference``'s m_overall per M (``m_results``: (label "M=3", metrics_dir) pairs), each paired
+def m_ablation_section(doc: Doc, m_results: Sequence[tuple[str, str | os.PathLike]], judge: str) -> None:
+    """``judge``'s m_overall per M (``m_results``: (label "M=3", metrics_dir) pairs), each paired
     against M=3 (else the first) on the same missions."""
     got = with_metrics(m_results)
     if not got:
@@ -66,18 +66,18 @@ def m_ablation_section(doc: Doc, m_results: Sequence[tuple[str, str | os.PathLik
     doc.p(f"Paired against {base_lab} on the same missions: reduction of m_overall, 95% bootstrap CI.")
     rows = []
     for lab, d_dir, mj in got:
-        d = mj.get("planners", {}).get(reference, {})
-        n_pairs, change, lo, hi = paired_reduction(base_dir, d_dir, reference, f"M:{lab}")
+        d = mj.get("planners", {}).get(judge, {})
+        n_pairs, change, lo, hi = paired_reduction(base_dir, d_dir, judge, f"M:{lab}")
         rows.append([lab, f"{fnum(d.get('m_overall'))} [{fnum(d.get('m_overall_ci_lo'))}, "
                           f"{fnum(d.get('m_overall_ci_hi'))}]", f"{d.get('n_fulfilled')}/{d.get('n_objects')}",
                      "–" if lab == base_lab else f"{fnum(change)}% [{fnum(lo)}, {fnum(hi)}] ({n_pairs} pairs)",
                      fnum(d.get("llm_calls_per_mission")),
                      fnum(d.get("llm_tokens_in_per_mission"), 0), fnum(d.get("llm_tokens_out_per_mission"), 0)])
-    doc.table(["M", f"{plots.label(reference)} m_overall / mission [CI]", "delivered", f"reduction vs {base_lab} [CI]",
+    doc.table(["M", f"{plots.label(judge)} m_overall / mission [CI]", "delivered", f"reduction vs {base_lab} [CI]",
                "LLM calls / mission", "tokens in / mission", "tokens out / mission"], rows)
 
 
-def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str, Path]], reference: str,
+def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str, Path]], judge: str,
                       current: str) -> None:
     """Each cost-estimate variant's m_overall beside this run's (``planner.nav_estimate`` = ``current``),
     paired over the missions both ran, and which the default should be."""
@@ -85,10 +85,10 @@ def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str,
     if not got:
         return
     doc.h(2, "Cost-estimate variants (planner.nav_estimate)")
-    doc.p(f"{plots.label(reference)} with each variant on the same missions as this run ({current}; paper_sum is "
+    doc.p(f"{plots.label(judge)} with each variant on the same missions as this run ({current}; paper_sum is "
           f"the paper's equation); change = paired reduction of m_overall against {current} (positive: the "
           f"variant is cheaper), 95% bootstrap CI.")
-    this = read_json(metrics_dir / "metrics.json")["planners"].get(reference, {})
+    this = read_json(metrics_dir / "metrics.json")["planners"].get(judge, {})
 
     def row(lab: str, m: Mapping, change: str, n_pairs: str) -> list[str]:
         return [lab, n_pairs, f"{fnum(m.get('m_overall'))} [{fnum(m.get('m_overall_ci_lo'))}, {fnum(m.get('m_overall_ci_hi'))}]",
@@ -96,8 +96,8 @@ def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str,
 
     rows, better, worse = [row(f"{current} (this run)", this, "–", "–")], [], []
     for lab, d in got:
-        n_pairs, reduction, lo, hi = paired_reduction(metrics_dir, d, reference, f"estimate:{lab}")
-        rows.append(row(lab, read_json(d / "metrics.json")["planners"].get(reference, {}),
+        n_pairs, reduction, lo, hi = paired_reduction(metrics_dir, d, judge, f"estimate:{lab}")
+        rows.append(row(lab, read_json(d / "metrics.json")["planners"].get(judge, {}),
                         f"{fnum(reduction)}% [{fnum(lo)}, {fnum(hi)}]", str(n_pairs)))
         if math.isfinite(lo) and lo > 0:
             better.append((lo, lab))
@@ -115,9 +115,9 @@ def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str,
         doc.p(f"No variant's paired CI lies above 0, so none can be told better than {current}: it stays the default.")
 
 
-def _source_row(metrics: Mapping, reference: str) -> dict:
+def _source_row(metrics: Mapping, judge: str) -> dict:
     """What the capability table and figure need of one run's metrics.json."""
-    sem = [v for k, v in metrics.get("semantic_accuracy", {}).items() if k.startswith(f"{reference}@")]
+    sem = [v for k, v in metrics.get("semantic_accuracy", {}).items() if k.startswith(f"{judge}@")]
     ans = metrics.get("answers", {})
     return {"source": metrics.get("settings", {}).get("source", "?"),
             "relevance": num_or_nan(ans.get("relevance")), "target": num_or_nan(ans.get("target")),
@@ -126,11 +126,11 @@ def _source_row(metrics: Mapping, reference: str) -> dict:
                          for p, d in metrics.get("planners", {}).items()},
             "delivered": {p: f"{d.get('n_fulfilled')}/{d.get('n_objects')}" for p, d in metrics.get("planners", {}).items()},
             "improvement": {k.split("_vs_", 1)[1]: tuple(num_or_nan(v.get(x)) for x in ("pct", "ci_lo", "ci_hi"))
-                            for k, v in metrics.get("improvement", {}).items() if k.startswith(f"{reference}_vs_")}}
+                            for k, v in metrics.get("improvement", {}).items() if k.startswith(f"{judge}_vs_")}}
 
 
-def _paying_sentence(reference: str, baseline: str, sweep: Sequence[tuple[float, Mapping]]) -> str:
-    """Where on the oracle axis the reference planner's paired improvement over ``baseline`` holds, and
+def _paying_sentence(judge: str, baseline: str, sweep: Sequence[tuple[float, Mapping]]) -> str:
+    """Where on the oracle axis the judged planner's paired improvement over ``baseline`` holds, and
     whether it grows with the quality of the answers (perfect oracle against random answers)."""
     nan3 = (math.nan,) * 3
     imp = {e: r["improvement"].get(baseline, nan3) for e, r in sweep}
@@ -140,18 +140,18 @@ def _paying_sentence(reference: str, baseline: str, sweep: Sequence[tuple[float,
     def errors(es) -> str:
         return ", ".join(format(e, "g") for e in es)
 
-    text = (f"{plots.label(reference)} over {plots.label(baseline)}: the paired improvement's CI lies above 0 at "
+    text = (f"{plots.label(judge)} over {plots.label(baseline)}: the paired improvement's CI lies above 0 at "
             f"oracle error {errors(above) or 'none'}"
             + (f" and includes 0 at {errors(rest)}." if rest else " (every swept error)."))
     grows = not (above and worst in above)
     return text + (f" From the perfect oracle (error {best:g}) to the most random answers (error {worst:g}) it goes "
-                   f"from {fnum(imp[best][0])}% to {fnum(imp[worst][0])}%: what {plots.label(reference)} gains over "
+                   f"from {fnum(imp[best][0])}% to {fnum(imp[worst][0])}%: what {plots.label(judge)} gains over "
                    f"{plots.label(baseline)} " + ("depends on the answers." if grows else
                                                   "does not come from good answers."))
 
 
 def capability_section(doc: Doc, metrics: Mapping, oracles: Sequence[tuple[float, Path]], fig_dir: Path,
-                       reference: str) -> Optional[Path]:
+                       judge: str) -> Optional[Path]:
     """The oracle sweep beside this run's model: accuracies, m_overall and paired improvements per
     source, the model's place on the oracle-error axis, and how much error the look-ahead survives.
     ``oracles``: (llm.oracle_error, metrics_dir) pairs; returns the figure drawn into ``fig_dir``
@@ -159,18 +159,18 @@ def capability_section(doc: Doc, metrics: Mapping, oracles: Sequence[tuple[float
     got = [(e, read_json(d / "metrics.json")) for e, d in oracles if (d / "metrics.json").is_file()]
     if not got:
         return None
-    model = _source_row(metrics, reference)
-    sweep = [(e, _source_row(m, reference)) for e, m in got]
+    model = _source_row(metrics, judge)
+    sweep = [(e, _source_row(m, judge)) for e, m in got]
     planners = ordered({p for _, r in sweep for p in r["planners"]} | set(model["planners"]))
-    refs = claims.references(metrics) | {p for _, m in got for p in claims.references(m)}
-    baselines = [p for p in planners if p != reference and p not in refs]
+    refs = claims.anchors(metrics) | {p for _, m in got for p in claims.anchors(m)}
+    baselines = [p for p in planners if p != judge and p not in refs]
     doc.h(2, "LLM capability: the oracle sweep and this run's model")
     doc.p("The same missions with llm=oracle: object relevance and target furniture from each command's goal, "
           "cost classes from the simulator's measurement, with a share llm.oracle_error of the answers replaced "
           "by seeded random ones. Oracle runs are never averaged with model runs. Accuracies are measured "
           "against ground truth for every source: relevance = share of the objects the candidates take that the "
           "command asks for; target = share of candidates delivering to a furniture the command names; cost "
-          f"class = {plots.label(reference)}'s inferred classes equal to the measured ones ('unknown' wrong). "
+          f"class = {plots.label(judge)}'s inferred classes equal to the measured ones ('unknown' wrong). "
           "m_overall per mission and paired improvements with 95% bootstrap CIs.")
 
     def mean_ci(v: tuple, unit: str = "") -> str:
@@ -179,11 +179,11 @@ def capability_section(doc: Doc, metrics: Mapping, oracles: Sequence[tuple[float
     nan3 = (math.nan,) * 3
     rows = [[r["source"], pct(r["relevance"]), pct(r["target"]), pct(r["cost"])]
             + [mean_ci(r["planners"].get(p, nan3)) for p in planners]
-            + [mean_ci(r["improvement"].get(b, nan3), "%") for b in baselines] + [r["delivered"].get(reference, "–")]
+            + [mean_ci(r["improvement"].get(b, nan3), "%") for b in baselines] + [r["delivered"].get(judge, "–")]
             for r in [model] + [r for _, r in sweep]]
     doc.table(["input source", "relevance", "target", "cost class"] + [f"{plots.label(p)} m_overall [CI]" for p in planners]
-              + [f"{plots.label(reference)} vs {plots.label(b)} [CI]" for b in baselines]
-              + [f"{plots.label(reference)} delivered"], rows)
+              + [f"{plots.label(judge)} vs {plots.label(b)} [CI]" for b in baselines]
+              + [f"{plots.label(judge)} delivered"], rows)
     where = {k: capability.equivalent_error(model[k], [(e, r[k]) for e, r in sweep]) for k in ("relevance", "cost")}
     sent = []
     for k, name in (("relevance", "object relevance"), ("cost", "cost classes")):
@@ -194,14 +194,14 @@ def capability_section(doc: Doc, metrics: Mapping, oracles: Sequence[tuple[float
                     f"({'worse than error ' + format(worst, 'g') if model[k] < min(r[k] for _, r in sweep) else 'better than the best oracle swept'})")
     doc.p(f"On this axis, {model['source']} sits where " + "; ".join(sent) + ".")
     for b in baselines:
-        doc.p(_paying_sentence(reference, b, sweep))
-    f = plots.capability_figure(sweep, model, where, planners, reference, fig_dir / "capability.png")
+        doc.p(_paying_sentence(judge, b, sweep))
+    f = plots.capability_figure(sweep, model, where, planners, judge, fig_dir / "capability.png")
     doc.img(f, "m_overall and paired improvements against oracle error; the model at its equivalent error")
     return f
 
 
 def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics: Mapping,
-                     reference: str = "inter_llm") -> None:
+                     judge: str) -> None:
     """Runs that differ only in ``llm.oracle_costs`` and/or ``planner.cost_encoding``: results are
     (group, variant label, metrics_dir) with one group per setting of every other key
     (``interllm.stages.report.find_encoding_results``); each variant of a group is paired against
@@ -215,20 +215,20 @@ def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics
         return
     st = metrics.get("settings", {})
     n_boot, cov, seed = int(st.get("bootstrap_samples", 2000)), float(st.get("ci", 0.95)), int(st.get("seed", 0))
-    ref = plots.label(reference)
+    ref = plots.label(judge)
     doc.h(2, "Cost encoding: class or numeric oracle costs, paper or expected encoding")
     doc.p(f"{ref} in runs that differ only in llm.oracle_costs (classes: the paper's three cost classes; numeric: "
           "the measured cost) and/or planner.cost_encoding (paper; expected: plus γ_obj × the chance the action "
           f"fails outright). Each variant is paired against {BASE_ENCODING} of its group on the missions both ran "
           "(variant − base; 95% paired bootstrap CIs; the position difference resamples the missions jointly for "
-          f"{ref} and both references of both runs).")
+          f"{ref} and both anchors of both runs).")
     rows = []
     for g in sorted(groups):
         vs = groups[g]
         base = BASE_ENCODING if BASE_ENCODING in vs else sorted(vs)[0]
         base_rows = read_csv(vs[base] / "per_mission.csv")
         for v in [base] + sorted(set(vs) - {base}):
-            d = read_json(vs[v] / "metrics.json").get("planners", {}).get(reference, {})
+            d = read_json(vs[v] / "metrics.json").get("planners", {}).get(judge, {})
             row = [g or "–", v + (" (base)" if v == base else ""),
                    ci(d.get("delivered_per_mission"), d.get("delivered_per_mission_ci_lo"),
                       d.get("delivered_per_mission_ci_hi"), 2),
@@ -237,7 +237,7 @@ def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics
             if v == base:
                 row += ["–"] * 4
             else:
-                c = paired_runs(read_csv(vs[v] / "per_mission.csv"), base_rows, reference, n_boot, cov,
+                c = paired_runs(read_csv(vs[v] / "per_mission.csv"), base_rows, judge, n_boot, cov,
                                 bootstrap_seed(seed, f"encoding:{g}:{v}"))
                 row += [str(c["n_pairs"]),
                         ci(c["delivered_diff"], c["delivered_diff_ci_lo"], c["delivered_diff_ci_hi"], 2, sign=True),

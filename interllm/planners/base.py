@@ -12,6 +12,7 @@ and one config file ``conf/planner/<name>.yaml`` (see docs/extending.md).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, fields
 from typing import Any, Protocol
 
@@ -24,6 +25,19 @@ from interllm.scene.graph import Command
 PLANNERS: Registry = Registry("planner", "planner.names", builtins=(
     "interllm.planners.sayplan", "interllm.planners.moma_llm", "interllm.planners.inter_llm",
     "interllm.planners.nothing", "interllm.planners.optimal"))
+
+
+def shown_planners(names: Iterable[str]) -> dict[str, dict[str, Any]]:
+    """How tables and figures show each of ``names``, from its registration: {name: {"label", "color",
+    "order", "anchor"}} (anchor: registered with ``anchor=True``, as ``nothing`` and ``optimal`` are:
+    shown beside the others, never judged). The missions stage writes it beside the runs
+    (``runs/planners.json``), so the metrics and the report read it without loading planner code."""
+    out = {}
+    for name in sorted(set(names)):
+        e = PLANNERS.entry(name)
+        out[name] = {"label": e.label, "color": e.meta.get("color"), "order": e.meta.get("order", 99),
+                     "anchor": bool(e.meta.get("anchor", False))}
+    return out
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""The ``optimal`` reference: ground-truth costs, the cheapest assignment over the whole mission,
+"""The ``optimal`` anchor (the optimal reference): ground-truth costs, the cheapest assignment over the whole mission,
 executed in the simulator.
 
 It reads what no real planner knows: every command's categories and target furniture, and the
@@ -28,7 +28,7 @@ that few, over every target when a command names that few (all of the default ex
 few hundred measurements per command, not thousands (``benchmarks/bench_optimal_huge.py``). Places
 are measured in the layout as it is when the search runs: a target that fills up shows at
 execution, and the search then runs again. The report places every planner between ``nothing`` (0)
-and this reference (1). It calls no LLM.
+and this anchor (1). It calls no LLM.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ MAX_TARGETS = 8  # accepting targets per instance searched, the nearest to its f
 # experiment's commands name at most 8, so the search is exact over targets there)
 
 
-@PLANNERS.register("optimal", label="Optimal (reference)", color="k", order=4, reference=True,
+@PLANNERS.register("optimal", label="Optimal (anchor)", color="k", order=4, anchor=True,
                    long_running=True)  # its MuJoCo measurements: the missions stage starts it first
 class OptimalPlanner:
     name = "optimal"

@@ -1,5 +1,5 @@
 """The cheapest assignment of objects to a mission's slots and targets, over given costs (what the
-``optimal`` reference planner computes from ground truth).
+``optimal`` anchor computes from ground truth).
 
 A delivery is (object, target): navigate to the object's furniture, pick it up, navigate to the
 target, place it. From location ``loc`` it costs

@@ -19,7 +19,7 @@ from typing import Any, Optional
 from interllm.config import ExperimentConfig
 from interllm.core.records import MissionRecord
 from interllm.io import read_json, write_json
-from interllm.metrics import capability, deliveries, manipulation, stats, summary
+from interllm.metrics import capability, deliveries, manipulation, planner_info, stats, summary
 from interllm.metrics.compute import (
     PER_COMMAND_FIELDS,
     PER_MISSION_FIELDS,
@@ -61,34 +61,33 @@ CSV_FILES = (
 class AggregateSettings:
     """What the metrics depend on besides the runs: the γ factors of m_overall, the bootstrap
     (``n_boot`` resamples, coverage ``ci``, ``seed``), the LLM temperature of the runs (Table II),
-    the planner whose improvement over the others is reported, the γ_obj values of the sensitivity
-    table [s] and the label of the input source."""
+    the judged planner (``metrics.judge``: its paired differences against every other planner are
+    reported), the γ_obj values of the sensitivity table [s] and the label of the input source."""
 
     gammas: Gammas
     n_boot: int
     ci: float
     seed: int
     temperature: float
-    reference: str
+    judge: str
     gamma_obj_values: tuple[float, ...]
     source: str
 
     @classmethod
-    def from_config(cls, cfg: Any, temperature: Optional[float] = None,
-                    reference: str = "inter_llm") -> AggregateSettings:
+    def from_config(cls, cfg: Any, temperature: Optional[float] = None) -> AggregateSettings:
         """From an ExperimentConfig (``sim.gamma_nav``, ``sim.gamma_man``, ``metrics.*``,
         ``llm.temperature`` unless ``temperature`` is given, ``llm.source_label``)."""
         mc = cfg.metrics
         return cls(gammas=Gammas.from_config(cfg), n_boot=int(mc.bootstrap_samples), ci=float(mc.ci),
                    seed=int(mc.seed), temperature=float(cfg.llm.temperature if temperature is None else temperature),
-                   reference=reference, gamma_obj_values=tuple(mc.gamma_obj_sensitivity),
+                   judge=str(mc.judge), gamma_obj_values=tuple(mc.gamma_obj_sensitivity),
                    source=cfg.llm.source_label)
 
     def as_json(self, n_runs: int) -> dict:
         """metrics.json's ``settings``."""
         g = self.gammas
         return {"gamma_nav": g.nav, "gamma_man": g.man, "gamma_obj": g.obj, "bootstrap_samples": self.n_boot,
-                "ci": self.ci, "seed": self.seed, "temperature": self.temperature, "reference": self.reference,
+                "ci": self.ci, "seed": self.seed, "temperature": self.temperature, "judge": self.judge,
                 "n_runs": n_runs, "source": self.source}
 
 
@@ -114,21 +113,20 @@ def run_aggregate(cfg: ExperimentConfig, runs_dir: Path, scenes_dir: Path, out_d
 
 def write_metrics(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cfg: Any,
                   out_dir: str | os.PathLike | None = None, *, temperature: Optional[float] = None,
-                  reference: str = "inter_llm", call_logs: Optional[Mapping[str, os.PathLike]] = None) -> dict:
+                  call_logs: Optional[Mapping[str, os.PathLike]] = None) -> dict:
     """Compute every table of the runs under ``runs_dir`` and write them to ``out_dir``.
 
     cfg: ExperimentConfig (``AggregateSettings.from_config``); out_dir: default
     ``<cfg.data_dir>/metrics``; temperature: the LLM temperature of these runs for Table II
-    (default ``cfg.llm.temperature``); reference: the planner whose improvement over the others is
-    reported; call_logs: {stage: llm_calls.jsonl} whose calls and failed calls are counted into
+    (default ``cfg.llm.temperature``); call_logs: {stage: llm_calls.jsonl} whose calls and failed calls are counted into
     ``llm_calls`` (default: the missions stage's, in runs_dir).
 
     metrics.json holds per planner the m_overall and delivery figures (``interllm.metrics.summary``,
     ``interllm.metrics.deliveries``: delivered, delivered_per_mission, exec_cost_per_delivered,
-    position, m_minus_nothing, below_nothing, reference), ``improvement`` (the reference's paired %
-    improvement over every non-reference planner), ``comparisons`` (paired m_overall and delivered
-    differences against every other planner), ``references``, ``gamma_obj_sensitivity`` and
-    ``candidate_diversity``.
+    position, m_minus_nothing, below_nothing; anchor, label, color, order: how the runs show it,
+    ``planner_info``), ``improvement`` (the judged planner's paired % improvement over every other
+    planner, anchors aside), ``comparisons`` (paired m_overall and delivered differences against
+    every other planner), ``anchors``, ``gamma_obj_sensitivity`` and ``candidate_diversity``.
 
     Writes (atomically): ``metrics.json`` (DVC metrics, rounded floats, sorted keys) and the CSVs of
     ``CSV_FILES``: ``cumulative.csv`` has x = object_index, y = m_overall_cum;
@@ -136,7 +134,7 @@ def write_metrics(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cf
     ``per_manipulation.csv`` and ``manipulation_attributes.csv`` come from
     ``interllm.metrics.manipulation``. Returns the metrics.json dict.
     """
-    s = AggregateSettings.from_config(cfg, temperature, reference)
+    s = AggregateSettings.from_config(cfg, temperature)
     out = Path(out_dir) if out_dir is not None else Path(cfg.data_dir) / "metrics"
     records = load_runs(runs_dir)
     if not records:
@@ -145,7 +143,8 @@ def write_metrics(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cf
     scenes = load_scene_categories(scenes_dir, (r.scene_id for r in records))
     tables = _tables(records, scenes, Path(scenes_dir), s)
     logs = dict(call_logs) if call_logs is not None else {"missions": Path(runs_dir) / "llm_calls.jsonl"}
-    result = summary.clean(_metrics_json(records, scenes, tables, logs, s))
+    with planner_info.shown(planner_info.load(runs_dir)):
+        result = summary.clean(_metrics_json(records, scenes, tables, logs, s))
     write_json(out / "metrics.json", result)
     for name, table, fields in CSV_FILES:
         write_csv(out / name, tables[table], fields)
@@ -174,18 +173,18 @@ def _metrics_json(records: Sequence[MissionRecord], scenes: Mapping[str, Mapping
     po, pm = tables["per_object"], tables["per_mission"]
     g = s.gammas
     dl = deliveries.delivery_metrics(records, po, pm, gamma_nav=g.nav, gamma_man=g.man,
-                                     gammas=list(s.gamma_obj_values), reference=s.reference, n_boot=s.n_boot,
+                                     gammas=list(s.gamma_obj_values), judge=s.judge, n_boot=s.n_boot,
                                      ci=s.ci, seed=s.seed)
-    claimants = [r for r in pm if not dl["planners"][r["planner"]]["reference"]]  # references are not judged
+    claimants = [r for r in pm if not dl["planners"][r["planner"]]["anchor"]]  # anchors are not judged
     calls = {stage: call_log_counts(path) for stage, path in sorted(logs.items())}
     planners = summary.planner_summaries(pm, po, failed_calls=calls.get("missions", {}).get("failed_by_planner", {}),
                                          deliveries=dl["planners"], n_boot=s.n_boot, ci=s.ci, seed=s.seed)
-    improvement = stats.compare_planners(claimants, s.reference, "m_overall", s.n_boot, s.ci, s.seed)
+    improvement = stats.compare_planners(claimants, s.judge, "m_overall", s.n_boot, s.ci, s.seed)
     return {
         "planners": planners,
-        "improvement": {f"{s.reference}_vs_{b}": v for b, v in improvement.items()},
+        "improvement": {f"{s.judge}_vs_{b}": v for b, v in improvement.items()},
         "comparisons": dl["comparisons"],
-        "references": dl["references"],
+        "anchors": dl["anchors"],
         "gamma_obj_sensitivity": dl["gamma_obj_sensitivity"],
         "candidate_diversity": dl["candidate_diversity"],
         "semantic_accuracy": summary.semantic_summary(tables["semantic_accuracy"]),

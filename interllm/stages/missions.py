@@ -18,13 +18,13 @@ import traceback
 from pathlib import Path
 
 from interllm.config import ExperimentConfig
-from interllm.core.records import MissionRecord
+from interllm.core.records import PLANNERS_FILE, MissionRecord
 from interllm.errors import INTERRUPTED_EXIT, StageError, UserError, output_error
 from interllm.imports_log import log_loaded_modules
 from interllm.io import check_name, child_path, ensure_dir, read_json, write_json
 from interllm.lifetime import die_with_parent
 from interllm.llm.health import check_failure_share
-from interllm.planners import PLANNERS
+from interllm.planners.base import PLANNERS, shown_planners
 from interllm.planners.runner import run_mission
 from interllm.progress import progress
 from interllm.record.recorder import McapRecorder
@@ -135,6 +135,7 @@ def run_missions(cfg: ExperimentConfig, scenes_dir: Path, candidates_dir: Path, 
     if probe_path.is_file():  # the LLM server's conformance probe, made by the candidates stage
         prov["llm_probe"] = read_json(probe_path)
     write_json(out_dir / "provenance.json", prov)
+    write_json(out_dir / PLANNERS_FILE, shown_planners(cfg.planner.names))
     jobs = [(p, sid, m.id) for sid in scene_ids(scenes_dir)
             for m in load_scene_and_missions(scenes_dir, sid, cfg)[1] for p in cfg.planner.names]
     n_workers = min(cfg.jobs or usable_cores(), len(jobs))
