@@ -37,6 +37,9 @@ from pipeline._hydra import compose  # noqa: E402
 
 def main(argv: list[str]) -> None:
     cfg = OmegaConf.to_object(compose(argv))
+    # every command's candidates from the mission's start state (the stage makes only the first
+    # command's by default: later commands are proposed when they run), so each command is scored
+    cfg.planner.fair_baselines = False
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         cfg.llm.cache_dir = str(out / "cache")

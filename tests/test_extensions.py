@@ -33,14 +33,15 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # -- "Adding a planner": execute the first initial candidate as it is -------------------------------
 class FirstCandidatePlanner:
-    """Executes the first shared initial candidate without repair or look-ahead."""
+    """Executes the first command's first shared initial candidate without repair or look-ahead, and
+    nothing on later commands (it asks the LLM for nothing, so it runs on the committed cache)."""
 
     name = "first_candidate"
 
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
         ctx.start_command()
         result = new_result(command)
-        proposed = ctx.candidates_for(command)
+        proposed = ctx.shared_candidates(command)
         if proposed:
             result.selected_plan = proposed[0]
             result.candidates = [proposed[0]]
@@ -136,7 +137,8 @@ def test_a_new_planner_runs_the_quick_experiment(registered, tmp_path, monkeypat
     metrics = run_aggregate(cfg, tmp_path / "runs", tmp_path / "scenes", tmp_path / "metrics")
     assert set(metrics["planners"]) == {"first_candidate", "sayplan"}
     rec = json.loads(next((tmp_path / "runs" / "first_candidate").rglob("m000.json")).read_text())
-    assert len(rec["commands"]) == 3 and all(c["summary"]["selected_plan"] for c in rec["commands"])
+    assert len(rec["commands"]) == 3 and rec["commands"][0]["summary"]["selected_plan"]
+    assert not any(c["summary"]["selected_plan"] for c in rec["commands"][1:])  # no shared candidates there
     assert metrics["planners"]["first_candidate"]["n_objects"] == 9
 
 

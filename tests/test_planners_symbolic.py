@@ -35,7 +35,10 @@ def test_initial_candidates_are_m_distinct_feasible_plans_and_deterministic():
     cfg, scene, mission = ExperimentConfig(), tiny_scene(), tiny_mission()
     a = generate_initial_candidates(scene, mission, FakeScoreClient(), cfg)
     b = generate_initial_candidates(scene, mission, FakeScoreClient(), cfg)
-    assert a == b and set(a) == {"breakfast", "reading"}
+    assert a == b and set(a) == {"breakfast"}  # only what is read: later commands are proposed when they run
+    cfg_all = ExperimentConfig()
+    cfg_all.planner.fair_baselines = False  # the baselines repair mission-start candidates for every command
+    assert set(generate_initial_candidates(scene, mission, FakeScoreClient(), cfg_all)) == {"breakfast", "reading"}
     assert all(len(v) == cfg.planner.M for v in a.values())
     assert len({json.dumps(p) for p in a["breakfast"]}) == cfg.planner.M
     cfg0 = ExperimentConfig()
@@ -102,11 +105,11 @@ def test_regeneration_bound_with_an_always_infeasible_llm():
     scene, mission = tiny_scene(), tiny_mission()
     cands = generate_initial_candidates(scene, mission, client, cfg)
     n_initial = len(client.requests)
-    # a plan per candidate; the scripted answer names no room, so each command's room selection is
-    # widened to its bound (then the plans look at the robot's room)
+    # a plan per candidate of the first command; the scripted answer names no room, so its room
+    # selection is widened to its bound (then the plans look at the robot's room)
     purposes = [r.purpose for r in client.requests]
-    assert purposes.count("candidates") == cfg.planner.M * len(mission.commands)
-    assert purposes.count("rooms_for_candidates") == (1 + cfg.llm.room_widenings) * len(mission.commands)
+    assert purposes.count("candidates") == cfg.planner.M  # the first command's only: later ones run in another state
+    assert purposes.count("rooms_for_candidates") == 1 + cfg.llm.room_widenings
     rec, world = run_tiny_mission("inter_llm", cfg, client=client, cands=cands)
     s = rec["commands"][0]["summary"]
     assert s["dropped_candidates"] == cfg.planner.M
@@ -146,9 +149,13 @@ def test_unknown_planner_and_missing_candidates_raise():
     with pytest.raises(ConfigError, match="'greedy' is not a registered planner"):
         run_mission("greedy", SymbolicWorld(scene, ExperimentConfig().sim), mission, {"breakfast": [], "reading": []},
                     FakeScoreClient(), ExperimentConfig())
-    with pytest.raises(ValueError, match="candidates stage"):
-        run_mission("sayplan", SymbolicWorld(scene, ExperimentConfig().sim), mission, {"breakfast": []},
+    with pytest.raises(ValueError, match=r"lack command\(s\) \['breakfast'\].*candidates stage"):
+        run_mission("sayplan", SymbolicWorld(scene, ExperimentConfig().sim), mission, {"reading": []},
                     FakeScoreClient(), ExperimentConfig())
+    loose = ExperimentConfig()
+    loose.planner.fair_baselines = False  # then the baselines read every command's
+    with pytest.raises(ValueError, match=r"lack command\(s\) \['reading'\]"):
+        run_mission("sayplan", SymbolicWorld(scene, loose.sim), mission, {"breakfast": []}, FakeScoreClient(), loose)
 
 
 def test_moma_counts_no_replan_when_a_failure_comes_after_the_command_is_fulfilled():

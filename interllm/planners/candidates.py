@@ -1,7 +1,11 @@
-"""Initial plan candidates: M per command, from the initial scene and the mission's start state.
+"""Initial plan candidates: M for the mission's first command, from the initial scene and the
+mission's start state.
 
 Made once (the ``candidates`` stage) and given to every planner, so all three start from the same
-plans (the paper's fair comparison). Seeds derive from (llm.seed, "candidates", mission id,
+plans (the paper's fair comparison). Only what is read is made: later commands run in a state the
+earlier ones changed, so every planner proposes them then (``PlannerContext.candidates``); with
+``planner.fair_baselines=false`` the baselines repair mission-start candidates for every command,
+so those are made for every command. Seeds derive from (llm.seed, "candidates", mission id,
 command id), never from the planner.
 """
 
@@ -23,14 +27,21 @@ def start_state(scene: SceneGraph, mission: Mission) -> State:
     return State(mission.start_furniture, scene.furniture[mission.start_furniture].room, None)
 
 
+def initial_commands(mission: Mission, cfg: ExperimentConfig) -> tuple:
+    """The commands whose shared initial candidates a planner reads: the first (every command with
+    ``planner.fair_baselines=false``, whose baselines repair mission-start candidates throughout)."""
+    return tuple(mission.commands) if not cfg.planner.fair_baselines else tuple(mission.commands[:1])
+
+
 def generate_initial_candidates(scene: SceneGraph, mission: Mission, client: LLMClientProtocol,
                                 cfg: ExperimentConfig) -> dict:
-    """{command_id: [plan as list of action dicts, ...] (``planner.M`` each)} — JSON-able; the plans
-    come from the proposer of ``llm.proposal_mode`` over ``client``."""
+    """{command_id: [plan as list of action dicts, ...] (``planner.M`` each)} for the commands whose
+    initial candidates are read (``initial_commands``) — JSON-able; the plans come from the
+    proposer of ``llm.proposal_mode`` over ``client``."""
     proposer, M, seed_base = make_proposer(client, cfg.llm).plans, cfg.planner.M, cfg.llm.seed
     state = start_state(scene, mission)
     out: dict[str, list[list[dict]]] = {}
-    for cmd in mission.commands:
+    for cmd in initial_commands(mission, cfg):
         labels = (("stage", "candidates"), ("scene", scene.id), ("mission", mission.id), ("command", cmd.id))
         plans = proposer.propose(PlanRequest(scene, state, cmd, int(cmd.goal.n_objects), context=labels), n_plans=M,
                                  seed=planning_seed(seed_base, "candidates", mission.id, cmd.id))

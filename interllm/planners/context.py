@@ -131,7 +131,9 @@ class PlannerContext:
         (only the numeric oracle's does), or None."""
         return success_rate_of(self.proposer.costs, action, label)
 
-    def candidates_for(self, command: Command) -> list[Plan]:
+    def shared_candidates(self, command: Command) -> list[Plan]:
+        """The shared initial candidates of ``command`` (made by the candidates stage for the first
+        command only, unless ``planner.fair_baselines=false``; empty when there are none)."""
         return list(self.initial_candidates.get(command.id, []))
 
     def is_first_command(self, command: Command) -> bool:
@@ -153,9 +155,13 @@ class PlannerContext:
         return self.proposer.plans.propose(self.request(command, known=known), n_plans=self.cfg.M,
                                            seed=self.seed("propose", command.id))
 
-    def baseline_candidates(self, command: Command) -> tuple[list[Plan], str]:
-        """(candidates, source) of a baseline: the shared initial ones for the first command, and for
-        every command unless ``planner.fair_baselines``; then proposed from the current state."""
-        if self.cfg.fair_baselines and not self.is_first_command(command):
-            return self.propose_from_state(command), "reproposed"
-        return self.candidates_for(command), "initial"
+    def candidates(self, command: Command, known: KnownCosts | None = None) -> tuple[list[Plan], str]:
+        """(candidates, source) of ``command`` for any planner, made for the state it runs in: the
+        shared initial ones ("initial") for the first command, else M proposed now from the current
+        state ("reproposed"; ``known``: the known costs their prompts carry, for a planner that
+        learns). With ``planner.fair_baselines=false`` a planner without known costs keeps the
+        shared mission-start candidates for every command, as the baselines did before."""
+        shared = self.shared_candidates(command)
+        if shared and (self.is_first_command(command) or (known is None and not self.cfg.fair_baselines)):
+            return shared, "initial"
+        return self.propose_from_state(command, known=known), "reproposed"

@@ -137,7 +137,7 @@ def finish(ctx: PlannerContext, result: CommandResult) -> CommandResult:
 def open_baseline_command(ctx: PlannerContext, command: Command, *, max_rounds: int,
                           note_no_candidates: bool = False) -> tuple[CommandResult, Optional[Plan]]:
     """SayPlan's and MoMa-LLM's opening of a command: start it, take the baseline's candidates
-    (``ctx.baseline_candidates``), log them on /planner/candidates and select the first one feasible
+    (``ctx.candidates``), log them on /planner/candidates and select the first one feasible
     within ``max_rounds`` repairs (``repair.first_feasible``).
 
     Returns the command's result (its ``selected_plan`` set) and the selected plan, or None with a
@@ -145,7 +145,7 @@ def open_baseline_command(ctx: PlannerContext, command: Command, *, max_rounds: 
     feasible."""
     ctx.start_command()
     result = new_result(command)
-    proposed, source = ctx.baseline_candidates(command)
+    proposed, source = ctx.candidates(command)
     ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
                                                "source": source})
     if note_no_candidates and not proposed:

@@ -46,16 +46,11 @@ def robot_xy(world) -> np.ndarray:
 class InterLLMPlanner:
     name = "inter_llm"
 
-    def __init__(self) -> None:
-        self._n_commands = 0
-
     # ---- proposals ----------------------------------------------------------------------
     def propose(self, command: Command, ctx: PlannerContext) -> tuple[list[Plan], str]:
         """The command's candidates and where they come from: the shared initial candidates
         (first command) or proposed now from the current state and the known costs."""
-        if self._n_commands == 0 and ctx.candidates_for(command):
-            return ctx.candidates_for(command), "initial"
-        return ctx.propose_from_state(command, known=ctx.memory), "reproposed"
+        return ctx.candidates(command, known=ctx.memory)
 
     # ---- estimation ---------------------------------------------------------------------
     def estimate(self, plan: Plan, command: Command, ctx: PlannerContext, paths: dict, labels: dict,
@@ -116,7 +111,6 @@ class InterLLMPlanner:
         ctx.start_command()
         result = new_result(command)
         proposed, source = self.propose(command, ctx)
-        self._n_commands += 1
         ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
                                                    "source": source})
         feasible: list[Plan] = []

@@ -9,7 +9,7 @@ from typing import Any, Optional
 from interllm.config import ExperimentConfig
 from interllm.core.records import CommandRecord, GoalRecord, MissionRecord
 from interllm.planners.base import PLANNERS
-from interllm.planners.candidates import candidates_from_json
+from interllm.planners.candidates import candidates_from_json, initial_commands
 from interllm.planners.context import LLMCallObserver, PlannerContext
 from interllm.planners.world_view import WorldView
 from interllm.planning.memory import KnownCosts
@@ -25,13 +25,14 @@ def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_c
                 on_command_end: Optional[CommandHook] = None) -> MissionRecord:
     """One planner on one mission in ``world`` (reset to the mission's start first).
 
-    initial_candidates: {command_id: [plan list, ...]} from ``generate_initial_candidates``;
+    initial_candidates: {command_id: [plan list, ...]} from ``generate_initial_candidates`` (the
+    commands of ``initial_commands``);
     client: the LLM client (its calls get the run's labels and are tallied per command);
     on_command_end(record so far, simulated time [s]): called after each command (the missions
     stage logs the command's executed result with it).
     """
     planner = PLANNERS.get(planner_name)()
-    missing = [c.id for c in mission.commands if c.id not in initial_candidates]
+    missing = [c.id for c in initial_commands(mission, cfg) if c.id not in initial_candidates]
     if missing:
         raise ValueError(f"initial candidates lack command(s) {missing} of mission {mission.id!r}; "
                          f"rerun the candidates stage for this mission")
