@@ -266,9 +266,15 @@ class PlannerConfig:
     # expected encoding: the chance that an action labelled "hard" fails outright (a class stands for
     # a cost range; "hard" covers both slow-but-sure and never-succeeding manipulations)
     hard_failure_prob: float = 0.5
+    # Python modules imported (in every process, the missions stage's workers too) before planners
+    # are looked up: a planner defined outside this package registers itself there with
+    # @PLANNERS.register (docs/extending.md)
+    modules: list[str] = field(default_factory=list)
 
     def validate(self) -> None:
         _check(len(self.names) >= 1, "planner.names", "must list at least one planner")
+        bad = [m for m in self.modules if not re.fullmatch(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*", m)]
+        _check(not bad, "planner.modules", f"must list importable module names (a.b.c), got {bad}")
         _check(len(set(self.names)) == len(self.names), "planner.names", "has duplicates")
         _check(1 <= self.M <= 20, "planner.M", f"must be in [1, 20], got {self.M}")
         _check(0 <= self.max_regenerations <= 20, "planner.max_regenerations", "must be in [0, 20]")

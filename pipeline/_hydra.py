@@ -35,14 +35,14 @@ def require_schema() -> None:
             f"`pip install -e .`)") from None
 
 
-def compose(overrides: list[str] | None = None):
-    """The DictConfig of conf/config.yaml with ``overrides``, as DVC's composition gives it (typed by
-    the schema: a typo or a wrong type fails here)."""
+def compose(overrides: list[str] | None = None, config_dir: str | Path = CONF_DIR):
+    """The DictConfig of ``config_dir``/config.yaml (default: the project's conf/) with ``overrides``,
+    as DVC's composition gives it (typed by the schema: a typo or a wrong type fails here)."""
     from hydra import compose as _compose
     from hydra import initialize_config_dir
 
     require_schema()
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+    with initialize_config_dir(config_dir=str(config_dir), version_base="1.3"):
         return _compose(config_name="config", overrides=list(overrides or []))
 
 

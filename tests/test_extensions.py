@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -165,3 +166,55 @@ def test_unregistered_names_fail_before_any_output(tmp_path):
                                           r"of \['embedded', 'ollama', 'openai', 'oracle'\]"):
         run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
     assert not (tmp_path / "candidates").exists()
+
+
+# -- "Adding a planner" as docs/extending.md writes it: a module outside the package, a conf/ file,
+# Hydra composition and the missions stage's worker processes -----------------------------------------
+OUTSIDE_PLANNER = '''"""A planner defined outside the interllm package."""
+from interllm.planners.base import PLANNERS
+from interllm.planners.execution import execute_plan, finish, new_result
+
+
+@PLANNERS.register("first_shared", label="First shared candidate", color="tab:purple", order=5)
+class FirstSharedPlanner:
+    name = "first_shared"
+
+    def run_command(self, command, ctx):
+        ctx.start_command()
+        result = new_result(command)
+        proposed = ctx.shared_candidates(command)
+        if proposed:
+            result.selected_plan, result.candidates = proposed[0], [proposed[0]]
+            execute_plan(ctx, command, proposed[0], result)
+        return finish(ctx, result)
+'''
+
+
+@pytest.mark.integration
+def test_the_planner_recipe_through_conf_hydra_and_two_worker_processes(tmp_path, monkeypatch):
+    from pipeline._hydra import compose, to_config
+
+    monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    (tmp_path / "my_planners").mkdir()
+    (tmp_path / "my_planners" / "__init__.py").write_text("")
+    (tmp_path / "my_planners" / "first_shared.py").write_text(OUTSIDE_PLANNER)
+    monkeypatch.syspath_prepend(str(tmp_path))  # the spawned workers start with the parent's sys.path
+    conf = tmp_path / "conf"
+    shutil.copytree(ROOT / "conf", conf)
+    (conf / "planner" / "first_shared.yaml").write_text(  # step 3 of the recipe
+        "names: [first_shared, sayplan]\nmodules: [my_planners.first_shared]\n")
+    cfg = to_config(compose(["experiment=quick", "planner=first_shared", "jobs=2", "metrics.judge=first_shared",
+                             f"llm.cache_dir={ROOT / 'data' / 'llm_cache'}", "llm.cache_mode=replay"], conf))
+    assert cfg.planner.names == ["first_shared", "sayplan"] and cfg.jobs == 2
+    assert "my_planners.first_shared" not in PLANNERS.builtins  # nothing in the package names it
+    run_scenes(cfg, tmp_path / "scenes")
+    run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
+    run_missions(cfg, tmp_path / "scenes", tmp_path / "candidates", tmp_path / "runs")
+    metrics = run_aggregate(cfg, tmp_path / "runs", tmp_path / "scenes", tmp_path / "metrics")
+    shown = metrics["planners"]["first_shared"]
+    assert shown["label"] == "First shared candidate" and shown["anchor"] is False
+    assert metrics["settings"]["judge"] == "first_shared" and set(metrics["improvement"]) == {"first_shared_vs_sayplan"}
+    rec = json.loads(next((tmp_path / "runs" / "first_shared").rglob("m000.json")).read_text())
+    assert rec["commands"][0]["summary"]["selected_plan"]
+    with pytest.raises(ConfigError, match=r"planner.modules.*cannot import 'my_planners.nowhere'.*PYTHONPATH"):
+        to_config(compose(["planner=first_shared", "planner.modules=[my_planners.nowhere]"], conf))

@@ -33,7 +33,7 @@ from interllm.sim.kinematics import RobotKinematics
 from interllm.sim.world import World
 from interllm.stages.inputs import PROBE_FILE, load_grids, load_scene_and_missions, scene_ids, stage_client
 from interllm.stages.provenance import for_run_log, provenance
-from interllm.stages.validate import check_registered
+from interllm.stages.validate import check_registered, import_planner_modules
 from interllm.stages.workers import Job, failed_message, merge_call_logs, usable_cores
 
 
@@ -46,6 +46,7 @@ class MissionWorker:
                  prov: dict, call_log: Path) -> None:
         self.cfg, self.scenes_dir, self.candidates_dir, self.out_dir, self.prov = (
             cfg, Path(scenes_dir), Path(candidates_dir), Path(out_dir), for_run_log(prov))
+        import_planner_modules(cfg)  # a worker process registers the planners defined outside the package too
         self.client = stage_client(cfg, call_log, "missions", probe=prov.get("llm_probe"))
         self.robot = RobotKinematics(cfg.sim)  # arm link frames on /tf, the robot's shape on /scene
         self._scenes: dict[str, tuple] = {}

@@ -4,14 +4,29 @@ by each stage before it uses them, so an unknown name fails before any output is
 
 from __future__ import annotations
 
-from interllm.config import ExperimentConfig
+import importlib
+
+from interllm.config import ConfigError, ExperimentConfig
 from interllm.llm.backend import BACKENDS
 from interllm.planners import PLANNERS
 from interllm.planning.proposers import COST_INFERRERS, PLAN_PROPOSERS
 
 
+def import_planner_modules(cfg: ExperimentConfig) -> None:
+    """Import ``planner.modules`` (planners defined outside this package register themselves there);
+    a module that cannot be imported raises ConfigError naming the key and the fix."""
+    for name in cfg.planner.modules:
+        try:
+            importlib.import_module(name)
+        except ImportError as e:
+            raise ConfigError(f"config key 'planner.modules': cannot import {name!r} ({type(e).__name__}: {e}); "
+                              f"put the folder that holds it on PYTHONPATH or correct the name") from None
+
+
 def check_registered(cfg: ExperimentConfig, planners: bool = True) -> None:
-    """Raise ConfigError naming the key and the registered names for any unknown one."""
+    """Raise ConfigError naming the key and the registered names for any unknown one (after
+    importing ``planner.modules``)."""
+    import_planner_modules(cfg)
     BACKENDS.entry(cfg.llm.backend)
     PLAN_PROPOSERS.entry(cfg.llm.proposal_mode)
     COST_INFERRERS.entry(cfg.llm.cost_inference_mode)
