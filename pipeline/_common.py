@@ -49,7 +49,7 @@ def write_folders(cfg: ExperimentConfig, data: Path, llm: bool = True) -> tuple[
     assembled in (a relative cache folder is the client's: relative to the working directory)."""
     if not llm:
         return (data,)
-    from interllm.llm.model_files import model_dir  # lazy: a stage without the LLM does not load (or depend on) it
+    from interllm.llm.model_files import model_dir  # lazy: a stage without the LLM does not load it
 
     return data, Path(cfg.llm.cache_dir), model_dir()
 
