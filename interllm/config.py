@@ -37,6 +37,9 @@ MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stage
 ORACLE_COSTS = ("classes", "numeric")  # llm.oracle_costs (interllm/planning/oracle.py)
 COST_ENCODINGS = ("paper", "expected")  # planner.cost_encoding (interllm/planning/costs.py)
 CANDIDATE_DIVERSITY = ("objects", "plans")  # llm.candidate_diversity (interllm/planning/scoring.py)
+# sweep: the report section an experiment's multirun jobs feed (interllm/stages/report.py finds
+# them by it); "" for none
+SWEEPS = ("", "temperature", "m", "estimate", "oracle", "encoding")
 
 
 # The largest scene (generated or imported) and experiment the stages accept, checked before any
@@ -316,6 +319,10 @@ class ExperimentConfig:
     ``hydra_plugins/interllm_schema``) with the option files' differences on top."""
 
     experiment: str = "paper"
+    # the report section this experiment's multirun jobs feed (one of SWEEPS): `interllm report
+    # --sweeps multirun` finds the jobs by it, not by the experiment's name, so a new experiment
+    # file with `sweep: oracle` joins the oracle axis
+    sweep: str = ""
     # the experiment's replicate: offsets the seeds of scene, mission, llm and sim (houses, mission
     # draws, LLM sampling, base-pose sampling) for a whole new draw; 0 leaves them as set.
     # metrics.seed (the bootstrap's) is not offset: replicates are judged by the same analysis
@@ -339,6 +346,7 @@ class ExperimentConfig:
         if isinstance(self.jobs, bool) or not isinstance(self.jobs, int) or self.jobs < 0:
             raise ConfigError(f"config key 'jobs' must be an integer >= 0 (0: one worker per CPU core), "
                               f"got {self.jobs!r}")
+        _choice(self.sweep, "sweep", SWEEPS)
         for group in (self.scene, self.mission, self.llm, self.planner, self.sim, self.metrics):
             group.validate()
 

@@ -343,3 +343,21 @@ def test_the_conclusions_of_a_metrics_diff_include_deliveries():
     c = conclusions(m)
     assert c["delivered inter_llm_vs_sayplan"] == "fewer, CI excludes 0"
     assert c["inter_llm below doing nothing"] == "yes, CI below 0"
+
+
+def test_sweep_jobs_are_found_by_what_their_experiment_declares(tmp_path):
+    """The report finds a multirun's jobs by the ``sweep`` their experiment declares, not by the
+    experiment's name: a new experiment file with ``sweep: oracle`` joins the oracle axis."""
+    from interllm.stages.report import find_oracle_results, find_sweep_results
+
+    def job(n: int, config: dict) -> None:
+        (tmp_path / str(n) / ".hydra").mkdir(parents=True)
+        (tmp_path / str(n) / ".hydra" / "config.yaml").write_text(json.dumps(config))
+        write_json(tmp_path / str(n) / "data" / "metrics" / "metrics.json", {})
+
+    job(0, {"experiment": "my_axis", "sweep": "oracle", "llm": {"oracle_error": 0.3}})
+    job(1, {"experiment": "oracle_sweep", "llm": {"oracle_error": 0.1}})  # composed before sweeps were declared
+    job(2, {"experiment": "my_other_run", "sweep": "", "llm": {"oracle_error": 0.2}})  # declares none
+    job(3, {"experiment": "low_t", "sweep": "temperature", "llm": {"temperature": 0.2}})
+    assert [e for e, _ in find_oracle_results(tmp_path)] == [0.1, 0.3]
+    assert [lab for lab, _ in find_sweep_results(tmp_path)[0]] == ["0.2"]

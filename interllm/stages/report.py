@@ -30,15 +30,26 @@ def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_
                  encoding_results=list(encoding_results))
 
 
-def _jobs(roots: Iterable[Path], experiment: str) -> list[tuple[dict, Path]]:
-    """(the job's .hydra/config.yaml, its metrics dir) of every ``experiment`` job under ``roots``
-    that produced metrics.json."""
+# the sweep of a job composed before experiments declared theirs (``sweep`` in conf/experiment/)
+_SWEEP_OF_EXPERIMENT = {"temperature_ablation": "temperature", "m_ablation": "m",
+                        "estimate_comparison": "estimate", "oracle_sweep": "oracle",
+                        "encoding_comparison": "encoding"}
+
+
+def sweep_of(c: dict) -> str:
+    """The report section a job's config declares it feeds (``sweep``)."""
+    return str(c.get("sweep") or _SWEEP_OF_EXPERIMENT.get(str(c.get("experiment")), ""))
+
+
+def _jobs(roots: Iterable[Path], sweep: str) -> list[tuple[dict, Path]]:
+    """(the job's .hydra/config.yaml, its metrics dir) of every job under ``roots`` that declares
+    ``sweep`` and produced metrics.json."""
     out = []
     for root in roots:
         for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
             metrics = cfg_file.parent.parent / "data" / "metrics"
             c = yaml.safe_load(cfg_file.read_text()) or {}
-            if c.get("experiment") == experiment and (metrics / "metrics.json").is_file():
+            if sweep_of(c) == sweep and (metrics / "metrics.json").is_file():
                 out.append((c, metrics))
     return out
 
@@ -59,12 +70,12 @@ def _encoding(c: dict) -> tuple[str, str]:
 
 
 def find_oracle_results(*roots: Path) -> list[tuple[float, Path]]:
-    """Jobs of ``experiment=oracle_sweep`` (and ``encoding_comparison``, whose jobs are oracle runs
-    too) multiruns under ``roots`` with metrics: [(llm.oracle_error, metrics_dir)], sorted by the
+    """Jobs declaring ``sweep: oracle`` (and ``sweep: encoding``, whose jobs are oracle runs too)
+    under ``roots`` with metrics: [(llm.oracle_error, metrics_dir)], sorted by the
     error, one job per error (an oracle_sweep one first). When the jobs also sweep the cost
     encoding (``find_encoding_results``), only those with the paper's encoding (or, without any,
     the first encoding by name) form the oracle axis, one job per error."""
-    jobs = _jobs(roots, "oracle_sweep") + _jobs(roots, "encoding_comparison")
+    jobs = _jobs(roots, "oracle") + _jobs(roots, "encoding")
     encs = {_encoding(c) for c, _ in jobs}
     keep = ENCODING_DEFAULTS if ENCODING_DEFAULTS in encs or not encs else min(encs)
     by_error: dict[float, Path] = {}
@@ -108,28 +119,17 @@ def find_encoding_results(*roots: Path) -> list[tuple[str, str, Path]]:
 
 
 def find_estimate_results(*roots: Path) -> list[tuple[str, Path]]:
-    """Jobs of ``experiment=estimate_comparison`` multiruns under ``roots`` with metrics:
-    [(planner.nav_estimate, metrics_dir)], sorted by the variant's name."""
-    return sorted((str(c["planner"]["nav_estimate"]), m) for c, m in _jobs(roots, "estimate_comparison"))
+    """Jobs declaring ``sweep: estimate`` under ``roots`` with metrics: [(planner.nav_estimate,
+    metrics_dir)], sorted by the variant's name."""
+    return sorted((str(c["planner"]["nav_estimate"]), m) for c, m in _jobs(roots, "estimate"))
 
 
 def find_sweep_results(*roots: Path) -> tuple[list[tuple[str, Path]], list[tuple[str, Path]]]:
-    """Ablation results of Hydra multiruns under ``roots``: jobs whose ``.hydra/config.yaml`` says
-    experiment=temperature_ablation or m_ablation and that produced ``data/metrics/metrics.json``.
+    """Ablation results of Hydra multiruns under ``roots``: jobs whose ``.hydra/config.yaml``
+    declares ``sweep: temperature`` or ``sweep: m`` and that produced ``data/metrics/metrics.json``.
 
     Returns (temperature_results, m_results) as (label, metrics_dir) pairs, sorted by value.
     """
-    temps: list[tuple[float, Path]] = []
-    ms: list[tuple[int, Path]] = []
-    for root in roots:
-        for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
-            job = cfg_file.parent.parent
-            metrics = job / "data" / "metrics"
-            if not (metrics / "metrics.json").is_file():
-                continue
-            c = yaml.safe_load(cfg_file.read_text()) or {}
-            if c.get("experiment") == "temperature_ablation":
-                temps.append((float(c["llm"]["temperature"]), metrics))
-            elif c.get("experiment") == "m_ablation":
-                ms.append((int(c["planner"]["M"]), metrics))
-    return ([(f"{t:.1f}", p) for t, p in sorted(temps)], [(f"M={m}", p) for m, p in sorted(ms)])
+    temps = sorted((float(c["llm"]["temperature"]), m) for c, m in _jobs(roots, "temperature"))
+    ms = sorted((int(c["planner"]["M"]), m) for c, m in _jobs(roots, "m"))
+    return ([(f"{t:.1f}", p) for t, p in temps], [(f"M={m}", p) for m, p in ms])
