@@ -361,3 +361,24 @@ def test_sweep_jobs_are_found_by_what_their_experiment_declares(tmp_path):
     job(3, {"experiment": "low_t", "sweep": "temperature", "llm": {"temperature": 0.2}})
     assert [e for e, _ in find_oracle_results(tmp_path)] == [0.1, 0.3]
     assert [lab for lab, _ in find_sweep_results(tmp_path)[0]] == ["0.2"]
+
+
+def test_a_hostile_planner_table_is_escaped_or_refused(runs):
+    """planners.json is input the report trusts as little as any: a label is text (escaped in the
+    HTML), a colour matplotlib does not know stops the report with the file and the fix."""
+    from interllm.errors import UserError
+    from interllm.metrics.report import build_report
+
+    table = shown_planners(PLANNERS_RUN)
+    table["sayplan"]["label"] = "<script>alert(1)</script>"
+    write_json(runs / "runs" / "planners.json", table)
+    cfg = from_dict({"metrics": {"bootstrap_samples": 200}})
+    write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
+    out = build_report(runs / "metrics", runs / "scenes", runs / "runs", runs / "report", cfg)
+    html = out["html"].read_text()
+    assert "<script>alert(1)</script>" not in html and "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    table["sayplan"]["color"] = "url(javascript:alert(1))"
+    write_json(runs / "runs" / "planners.json", table)
+    write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
+    with pytest.raises(UserError, match=r"planner 'sayplan': colour .* is not a matplotlib colour; rerun the missions"):
+        build_report(runs / "metrics", runs / "scenes", runs / "runs", runs / "report", cfg)

@@ -13,6 +13,7 @@ from typing import Optional
 
 import numpy as np
 
+from interllm.errors import UserError
 from interllm.io import check_inside, ensure_dir
 from interllm.metrics import planner_info
 from interllm.planning.similarity import path_overlap
@@ -45,8 +46,17 @@ def label(planner: str) -> str:
 
 
 def color(planner: str) -> str | None:
-    """A planner's colour in figures (``planner_info``; None: matplotlib's next)."""
-    return planner_info.current().color(planner)
+    """A planner's colour in figures (``planner_info``; None: matplotlib's next). A colour matplotlib
+    does not know (a hand-edited planners.json) raises a UserError naming it and the fix."""
+    c = planner_info.current().color(planner)
+    _plt()
+    from matplotlib.colors import is_color_like  # lazy: heavy, only when a figure is drawn
+
+    if c is not None and not is_color_like(c):
+        raise UserError(f"planner {planner!r}: colour {c!r} (metrics.json planners.{planner}.color, copied from "
+                        f"runs/planners.json) is not a matplotlib colour; rerun the missions stage "
+                        f"(dvc repro missions) to rewrite it from the planner's registration")
+    return c
 
 
 def cumulative_figure(rows: Iterable[Mapping], path: str | os.PathLike) -> Path:
