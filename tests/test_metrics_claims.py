@@ -57,12 +57,37 @@ def test_the_rise_of_accuracy_with_sigma():
     assert claims.sigma_rise(_inferences({0.8: 0.5}), n_boot=300)["verdict"] == "cannot tell"  # one σ
 
 
-def test_missions_needed_for_a_10_percent_difference():
-    # the baseline costs 100 on every mission; the differences alternate 0, 20: sd = 10.954
-    rows = [{"planner": "sayplan", "scene": "s", "mission": f"m{i}", "m_overall": 100.0} for i in range(6)]
-    rows += [{"planner": "inter_llm", "scene": "s", "mission": f"m{i}", "m_overall": 100.0 - 20 * (i % 2)}
-             for i in range(6)]
-    v = claims.missions_needed(rows, "inter_llm")["sayplan"]
-    sd = math.sqrt(6 * 100 / 5)  # deviations of ±10 around the mean 10, ddof = 1
-    assert v["sd_diff"] == pytest.approx(sd)
-    assert v["n_needed"] == math.ceil(((1.959964 + 0.841621) * sd / 10.0) ** 2) == 10
+def test_houses_needed_for_a_10_percent_difference_by_hand():
+    # the baseline costs 100 on every mission; in both houses the differences alternate 0, 20:
+    # the house means agree (σ_b = 0) and the pooled within-house variance is 6·10² / 5 = 120
+    rows = _paired({"h0": [0.0, 20.0] * 3, "h1": [0.0, 20.0] * 3})
+    v = claims.houses_needed(rows, "inter_llm")["sayplan"]
+    assert v["sd_within"] == pytest.approx(math.sqrt(120.0)) and v["sd_between"] == pytest.approx(0.0)
+    # H = ⌈(1.959964 + 0.841621)² · (0 + 120 / 6) / 10²⌉ = ⌈1.57⌉ = 2 houses of 6 missions
+    assert (v["houses_needed"], v["missions_needed"], v["missions_per_house"]) == (2, 12, 6.0)
+
+
+def _paired(diffs_by_house: dict[str, list[float]]) -> list[dict]:
+    """per_mission rows: sayplan at 100 s, inter_llm 100 − d for each house's differences d."""
+    rows = []
+    for h, ds in diffs_by_house.items():
+        for i, d in enumerate(ds):
+            rows += [{"planner": "sayplan", "scene": h, "mission": f"m{i}", "m_overall": 100.0},
+                     {"planner": "inter_llm", "scene": h, "mission": f"m{i}", "m_overall": 100.0 - d}]
+    return rows
+
+
+def test_houses_needed_counts_the_spread_between_houses_not_only_the_missions():
+    # every mission in a house gains the same: all spread is between houses (σ_w = 0), so more
+    # missions per house buy nothing and the houses needed follow from the house means alone
+    between = _paired({"h0": [0.0] * 10, "h1": [20.0] * 10, "h2": [10.0] * 10})
+    v = claims.houses_needed(between, "inter_llm")["sayplan"]
+    assert v["sd_within"] == pytest.approx(0.0) and v["sd_between"] == pytest.approx(10.0)
+    # (1.96 + 0.84)² · 10² / (0.1 · 100)² = 7.85 -> 8 houses, 80 missions
+    assert (v["houses_needed"], v["missions_needed"], v["n_houses"]) == (8, 80, 3)
+    # the same spread within houses instead: the mean of 10 missions per house averages it away
+    within = _paired({h: [0.0, 20.0] * 5 for h in ("h0", "h1", "h2")})
+    w = claims.houses_needed(within, "inter_llm")["sayplan"]
+    assert w["sd_between"] == pytest.approx(0.0) and w["houses_needed"] < v["houses_needed"]
+    one = claims.houses_needed(_paired({"h0": [0.0, 20.0] * 5}), "inter_llm")["sayplan"]
+    assert math.isnan(one["houses_needed"]) and one["n_houses"] == 1

@@ -148,7 +148,7 @@ def test_anchors_are_not_claimants():
     assert set(claims.improvement_30(m)) == {"sayplan"}
     rows = [{"planner": p, "scene": "s", "mission": f"m{i}", "m_overall": 100.0 + i * (p == "optimal")}
             for p in ("inter_llm", "sayplan", "optimal") for i in range(6)]
-    assert set(claims.missions_needed(rows, "inter_llm", exclude={"optimal"})) == {"sayplan"}
+    assert set(claims.houses_needed(rows, "inter_llm", exclude={"optimal"})) == {"sayplan"}
 
 
 # ---- 5. γ_obj ----------------------------------------------------------------------------------

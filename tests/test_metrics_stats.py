@@ -12,8 +12,11 @@ from interllm.metrics.stats import (
     fulfilment_counts,
     group_mean_ci,
     improvement_pct,
+    joint_bootstrap,
     llm_usage,
     paired_improvement,
+    paired_mean_diff,
+    resample_counts,
 )
 from interllm.planning.costs import encode_cost
 
@@ -102,9 +105,9 @@ def test_bootstrap_seed_stable():
 
 
 def _inferences(pairs: list[tuple[str, str]]) -> list[dict]:
-    """Hand-made judged inferences: (truth, predicted)."""
-    return [{"temperature": 0.8, "planner": "inter_llm", "judged": 1, "truth": t, "predicted": p,
-             "correct": int(t == p)} for t, p in pairs]
+    """Hand-made judged inferences: (truth, predicted), dealt in turn to 20 missions in 4 houses."""
+    return [{"temperature": 0.8, "planner": "inter_llm", "scene": f"house{i % 20 // 5}", "mission": f"m{i % 20}",
+             "judged": 1, "truth": t, "predicted": p, "correct": int(t == p)} for i, (t, p) in enumerate(pairs)]
 
 
 def test_table_ii_against_chance_and_the_majority_class():
@@ -126,4 +129,62 @@ def test_table_ii_against_chance_and_the_majority_class():
     # a model that is right 45 times in 50 on balanced truths: above both baselines
     good = [(c, c) for c in classes] * 15 + [("easy", "hard")] * 5
     (row,) = semantic_accuracy(_inferences(good), 500, 0.95, 0)
-    assert row["verdict"] == "above the baselines" and row["accuracy_known_ci_lo"] > 0.8
+    assert row["verdict"] == "holds" and row["accuracy_known_ci_lo"] > max(row["chance"], row["majority"])
+    # guessing uniformly when 80% of the truths are hard: a third right, far below always answering "hard"
+    skewed = [("hard", p) for p in classes] * 40 + [(t, p) for t in ("easy", "medium") for p in classes] * 5
+    (row,) = semantic_accuracy(_inferences(skewed), 500, 0.95, 0)
+    assert row["majority"] == pytest.approx(0.8) and row["accuracy_known_ci_hi"] < 0.8
+    assert row["verdict"] == "does not hold: below the majority class"
+    # always wrong: below chance too
+    (row,) = semantic_accuracy(_inferences([("easy", "hard"), ("hard", "easy")] * 30), 500, 0.95, 0)
+    assert row["verdict"] == "does not hold: below chance"
+
+
+def _houses(effects: list[float], per_house: int, spread: float, seed: int) -> tuple[list[float], list[str]]:
+    """Per-mission values: a house effect plus mission noise; and the house of each."""
+    rng = np.random.default_rng(seed)
+    x, h = [], []
+    for i, e in enumerate(effects):
+        x += list(e + rng.normal(0.0, spread, per_house))
+        h += [f"house{i}"] * per_house
+    return x, h
+
+
+def test_the_house_clustered_interval_is_wider_when_houses_differ():
+    # five houses whose missions differ little within a house but a lot between houses: the missions
+    # are not 50 independent draws, and an interval that treats them so is too narrow
+    x, houses = _houses([0.0, 40.0, -30.0, 10.0, 60.0], 10, 2.0, 4)
+    _, lo_iid, hi_iid = bootstrap_mean_ci(x, 2000, 0.95, 1)
+    _, lo, hi = bootstrap_mean_ci(x, 2000, 0.95, 1, houses)
+    assert hi - lo > 3 * (hi_iid - lo_iid)
+    # the same holds for paired differences and ratios of sums
+    y = [v + 5.0 for v in x]
+    assert np.diff(paired_mean_diff(y, x, 2000, 0.95, 1, houses)[1:]) == pytest.approx(0.0)  # constant gap
+    shifted = [v + 100.0 for v in x]
+    w_iid = np.diff(joint_bootstrap(lambda a, b: a / b, [shifted, [1.0] * 50], 2000, 0.95, 1)[1:])[0]
+    w_h = np.diff(joint_bootstrap(lambda a, b: a / b, [shifted, [1.0] * 50], 2000, 0.95, 1, houses)[1:])[0]
+    assert w_h > 3 * w_iid
+
+
+def test_without_a_house_effect_clustering_changes_little():
+    x, houses = _houses([0.0] * 6, 10, 5.0, 5)
+    _, lo_iid, hi_iid = bootstrap_mean_ci(x, 4000, 0.95, 2)
+    _, lo, hi = bootstrap_mean_ci(x, 4000, 0.95, 2, houses)
+    assert 0.7 < (hi - lo) / (hi_iid - lo_iid) < 1.6
+
+
+def test_resample_counts_draw_whole_houses_then_missions_within_them():
+    houses = ["a"] * 3 + ["b"] * 5 + ["c"] * 2
+    w = resample_counts(10, 400, 9, houses)
+    assert w.shape == (400, 10) and w.dtype.kind == "i"
+    size = {"a": 3, "b": 5, "c": 2}
+    for row in w:
+        per = {h: int(row[[i for i, x in enumerate(houses) if x == h]].sum()) for h in size}
+        # each house contributes a multiple of its size: it was drawn that many times
+        assert all(per[h] % size[h] == 0 for h in size) and sum(per[h] // size[h] for h in size) == 3
+    assert (w == resample_counts(10, 400, 9, houses)).all()
+    # one house (or none named) is the ordinary bootstrap: every row holds n draws
+    assert (resample_counts(10, 50, 9, ["a"] * 10).sum(axis=1) == 10).all()
+    assert (resample_counts(10, 50, 9) == resample_counts(10, 50, 9, ["a"] * 10)).all()
+    with pytest.raises(ValueError, match="cluster labels"):
+        resample_counts(10, 50, 9, ["a"] * 9)

@@ -1,5 +1,5 @@
 """The paper's claims, each beside our figure with its CI and a verdict (holds / does not hold /
-cannot tell), and the number of missions a 10% paired difference needs.
+cannot tell), and the number of houses a 10% paired difference needs.
 
 The judged planner (``metrics.judge``, Inter-LLM by default) makes the claims. Anchors
 (``metrics.json`` planners flagged ``"anchor": true``: doing nothing, the optimal reference) are
@@ -22,9 +22,11 @@ shown beside the claims but are never claimants nor baselines.
 - ``sigma_rise``: Table II's accuracy rises with σ. The least-squares slope of
   accuracy-when-answered on σ, with a bootstrap CI resampling the inferences within each σ;
   holds when the CI lies above 0; needs at least two temperatures.
-- ``missions_needed``: per baseline, missions for a paired 10% difference at 80% power and
-  α = 0.05 (two-sided), from the measured spread of the per-mission differences:
-  n = ((z_0.975 + z_0.8) · sd(d) / (0.1 · mean(baseline)))².
+- ``houses_needed``: per baseline, houses (at the runs' missions per house) for a paired 10%
+  difference at 80% power and α = 0.05 (two-sided), from the between- and within-house spread of
+  the per-mission differences (missions in one house are not independent draws).
+
+Every CI resamples houses, then missions within them (``stats.resample_counts``).
 """
 
 from __future__ import annotations
@@ -134,7 +136,7 @@ def self_improvement(per_command: Iterable[Mapping], judge: str, n_boot: int = 2
     po = _per_object(per_command)
     out = {}
     for base in sorted({k[0] for k in po} - {judge} - set(exclude)):
-        d = []
+        d, houses = [], []
         for (p, s, m), cmds in sorted(po.items()):
             if p != judge or (base, s, m) not in po or len(cmds) < 2:
                 continue
@@ -142,7 +144,9 @@ def self_improvement(per_command: Iterable[Mapping], judge: str, n_boot: int = 2
             first, last = min(cmds), max(cmds)
             if first in other and last in other:
                 d.append((cmds[last] - other[last]) - (cmds[first] - other[first]))
-        mean, lo, hi = bootstrap_mean_ci(d, n_boot, ci, bootstrap_seed(seed, f"self_improvement:{judge}:{base}"))
+                houses.append(s)
+        mean, lo, hi = bootstrap_mean_ci(d, n_boot, ci, bootstrap_seed(seed, f"self_improvement:{judge}:{base}"),
+                                         houses)
         verdict = "cannot tell" if not (math.isfinite(lo) and math.isfinite(hi)) else \
             "holds" if hi < 0 else "does not hold" if lo > 0 else "cannot tell"
         out[base] = {"did": mean, "lo": lo, "hi": hi, "n": len(d), "verdict": verdict}
@@ -178,11 +182,16 @@ def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot
     return {"slope": point, "lo": float(lo), "hi": float(hi), "n_sigma": len(sig), "verdict": verdict}
 
 
-def missions_needed(per_mission: Iterable[Mapping], judge: str, effect: float = 0.10,
-                    exclude: Iterable[str] = ()) -> dict:
-    """Per baseline (planners in ``exclude``, the anchors, left out): {n_needed, sd_diff,
-    base_mean, n_pairs} for a paired ``effect`` (share of the baseline's mean m_overall) at 80%
-    power, α = 0.05 two-sided."""
+def houses_needed(per_mission: Iterable[Mapping], judge: str, effect: float = 0.10,
+                  exclude: Iterable[str] = ()) -> dict:
+    """Per baseline (planners in ``exclude``, the anchors, left out): the houses a paired ``effect``
+    (share of the baseline's mean m_overall) needs at 80% power, α = 0.05 two-sided, with the runs'
+    missions per house m. The paired differences d are split into a between-house variance σ_b²
+    (of the house means, less the within part, at least 0) and a pooled within-house variance σ_w²,
+    so the mean of H houses × m missions has variance (σ_b² + σ_w² / m) / H and
+    H = ⌈(z_0.975 + z_0.8)² (σ_b² + σ_w² / m) / (effect · mean(baseline))²⌉.
+    {houses_needed (NaN from one house), missions_needed = H·m, missions_per_house, sd_between,
+    sd_within, n_houses, n_pairs, base_mean}."""
     by: dict[str, dict[tuple, float]] = {}
     for r in per_mission:
         by.setdefault(str(r["planner"]), {})[(str(r["scene"]), str(r["mission"]))] = float(r["m_overall"])
@@ -191,9 +200,26 @@ def missions_needed(per_mission: Iterable[Mapping], judge: str, effect: float = 
         keys = sorted(set(by.get(judge, {})) & set(by[base]))
         if len(keys) < MIN_CI_SAMPLES:
             continue
-        d = np.array([by[base][k] - by[judge][k] for k in keys])
+        per_house: dict[str, list[float]] = {}
+        for k in keys:
+            per_house.setdefault(k[0], []).append(by[base][k] - by[judge][k])
         base_mean = float(np.mean([by[base][k] for k in keys]))
-        sd = float(np.std(d, ddof=1))
-        n = math.ceil(((Z_ALPHA + Z_POWER) * sd / (effect * base_mean)) ** 2) if base_mean > 0 else float("nan")
-        out[base] = {"n_needed": n, "sd_diff": sd, "base_mean": base_mean, "n_pairs": len(keys)}
+        out[base] = {**_design(list(per_house.values()), effect * base_mean), "base_mean": base_mean,
+                     "n_pairs": len(keys)}
     return out
+
+
+def _design(houses: Sequence[Sequence[float]], delta: float) -> dict:
+    """Variance components of per-house samples of paired differences and the houses H (at the mean
+    missions per house m) whose mean detects ``delta`` at 80% power (``houses_needed``)."""
+    m = float(np.mean([len(h) for h in houses]))
+    dof = sum(len(h) - 1 for h in houses)
+    var_w = sum(float(np.sum((np.asarray(h) - np.mean(h)) ** 2)) for h in houses) / dof if dof > 0 else 0.0
+    nan = float("nan")
+    if len(houses) < 2 or delta <= 0:
+        return {"houses_needed": nan, "missions_needed": nan, "missions_per_house": m, "sd_between": nan,
+                "sd_within": math.sqrt(var_w), "n_houses": len(houses)}
+    var_b = max(0.0, float(np.var([np.mean(h) for h in houses], ddof=1)) - var_w / m)
+    h_needed = max(2, math.ceil((Z_ALPHA + Z_POWER) ** 2 * (var_b + var_w / m) / delta ** 2))
+    return {"houses_needed": h_needed, "missions_needed": math.ceil(h_needed * m), "missions_per_house": m,
+            "sd_between": math.sqrt(var_b), "sd_within": math.sqrt(var_w), "n_houses": len(houses)}

@@ -27,6 +27,9 @@ metrics keep that visible:
 - **candidate diversity**: per planner with candidates, the share of commands whose candidates
   take different objects (at least two distinct sets of picked-up objects).
 
+Every CI is house-clustered (``stats.resample_counts``): it resamples the houses, then the missions
+within each, since missions in one house share its layout and commands.
+
 The judged planner (``metrics.judge``) is compared with every other planner. Anchors are the
 planners the runs record as such (``planner_info``: registered with ``anchor=True``); they are
 shown, never judged. The position needs exactly one of each kind: the runs named ``nothing`` and
@@ -37,14 +40,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
 from interllm.core.records import MissionRecord
 from interllm.core.seeding import bootstrap_seed
 from interllm.metrics import planner_info
-from interllm.metrics.stats import bootstrap_mean_ci, by_mission, joint_bootstrap, paired_mean_diff
+from interllm.metrics.stats import bootstrap_mean_ci, by_mission, houses_of, joint_bootstrap, paired_mean_diff
 
 NOTHING, OPTIMAL = "nothing", "optimal"  # the two anchors of the normalised position
 NAN = float("nan")
@@ -83,7 +86,8 @@ def planner_deliveries(per_mission: Iterable[Mapping], gamma_nav: float, n_boot:
     for p in sorted(rows):
         dl = [float(r["n_fulfilled"]) for r in rows[p]]
         ex = [exec_cost(r, gamma_nav) for r in rows[p]]
-        m, lo, hi = bootstrap_mean_ci(dl, n_boot, ci, bootstrap_seed(seed, f"mission:delivered:{p}"))
+        m, lo, hi = bootstrap_mean_ci(dl, n_boot, ci, bootstrap_seed(seed, f"mission:delivered:{p}"),
+                                      [str(r["scene"]) for r in rows[p]])
         total = int(round(sum(dl)))
         out[p] = {"delivered": total, "delivered_per_mission": m, "delivered_per_mission_ci_lo": lo,
                   "delivered_per_mission_ci_hi": hi, "exec_cost": sum(ex) / len(ex),
@@ -108,23 +112,24 @@ def paired_comparisons(per_mission: Iterable[Mapping], judge: str, n_boot: int =
         d: dict[str, Any] = {"baseline": b, "baseline_anchor": is_anchor(b), "n_pairs": len(keys)}
         for name, tab in (("m_overall", m), ("delivered", dl)):
             v, lo, hi = paired_mean_diff([tab[judge][k] for k in keys], [tab[b][k] for k in keys], n_boot, ci,
-                                         bootstrap_seed(seed, f"paired_diff:{name}:{judge}:{b}"))
+                                         bootstrap_seed(seed, f"paired_diff:{name}:{judge}:{b}"), houses_of(keys))
             d.update({f"{name}_diff": v, f"{name}_diff_ci_lo": lo, f"{name}_diff_ci_hi": hi})
         out[f"{judge}_vs_{b}"] = d
     return out
 
 
-def _position(m: np.ndarray, null: np.ndarray, opt: np.ndarray) -> Any:
-    """(Σ null − Σ m) / (Σ null − Σ opt) along the last axis (missions)."""
-    return (null.sum(axis=-1) - m.sum(axis=-1)) / (null.sum(axis=-1) - opt.sum(axis=-1))
+def _position(m: Any, null: Any, opt: Any) -> Any:
+    """(Σ null − Σ m) / (Σ null − Σ opt) from the three sums over the missions (floats or arrays)."""
+    return (null - m) / (null - opt)
 
 
 def position(m: Sequence[float], null: Sequence[float], opt: Sequence[float], n_boot: int = 2000,
-             ci: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
+             ci: float = 0.95, seed: int = 0, houses: Optional[Sequence[str]] = None) -> tuple[float, float, float]:
     """(position, lo, hi) of a planner's per-mission m_overall ``m`` between the nothing anchor's
     ``null`` (0) and the optimal anchor's ``opt`` (1), the same missions in the same order; NaN
-    when Σ null = Σ opt. The CI resamples the missions jointly for the three."""
-    return joint_bootstrap(_position, [m, null, opt], n_boot, ci, seed)
+    when Σ null = Σ opt. The CI resamples the missions jointly for the three (by house, then
+    mission, when ``houses`` names each mission's)."""
+    return joint_bootstrap(_position, [m, null, opt], n_boot, ci, seed, houses)
 
 
 def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0
@@ -142,14 +147,15 @@ def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.
         if OPTIMAL in m:
             keys = sorted(set(m[p]) & set(m[NOTHING]) & set(m[OPTIMAL]))
             v, lo, hi = position([m[p][k] for k in keys], [m[NOTHING][k] for k in keys],
-                                 [m[OPTIMAL][k] for k in keys], n_boot, ci, bootstrap_seed(seed, f"position:{p}"))
+                                 [m[OPTIMAL][k] for k in keys], n_boot, ci, bootstrap_seed(seed, f"position:{p}"),
+                                 houses_of(keys))
             out[p].update({"position": v, "position_ci_lo": lo, "position_ci_hi": hi,
                            "position_n_missions": len(keys)})
         if p == NOTHING:
             continue
         keys = sorted(set(m[p]) & set(m[NOTHING]))
         v, lo, hi = paired_mean_diff([m[p][k] for k in keys], [m[NOTHING][k] for k in keys], n_boot, ci,
-                                     bootstrap_seed(seed, f"paired_diff:m_overall:{p}:{NOTHING}"))
+                                     bootstrap_seed(seed, f"paired_diff:m_overall:{p}:{NOTHING}"), houses_of(keys))
         out[p].update({"m_minus_nothing": v, "m_minus_nothing_ci_lo": lo, "m_minus_nothing_ci_hi": hi,
                        "below_nothing": (hi < 0) if math.isfinite(hi) else None})
     return out
@@ -220,7 +226,7 @@ def gamma_obj_sensitivity(per_object: Iterable[Mapping], *, gamma_nav: float, ga
         by = {}
         for g in gs:  # the same resamples at every γ (and as ``paired_comparisons``' m_overall difference)
             v, lo, hi = paired_mean_diff(er + g * ur, eb + g * ub, n_boot, ci,
-                                         bootstrap_seed(seed, f"paired_diff:m_overall:{judge}:{b}"))
+                                         bootstrap_seed(seed, f"paired_diff:m_overall:{judge}:{b}"), houses_of(keys))
             by[gamma_key(g)] = {"diff": v, "ci_lo": lo, "ci_hi": hi}
         out["comparisons"][f"{judge}_vs_{b}"] = {
             "baseline": b, "baseline_anchor": is_anchor(b), "n_pairs": len(keys), "exec_diff": de,
@@ -286,14 +292,15 @@ def paired_runs(variant: Iterable[Mapping], base: Iterable[Mapping], planner: st
     out["n_pairs"] = len(keys)
     for name, a, b in (("m_overall", mv, mb), ("delivered", dv, db)):
         v, lo, hi = paired_mean_diff([a[planner][k] for k in keys], [b[planner][k] for k in keys], n_boot, ci,
-                                     bootstrap_seed(seed, f"runs:{name}:{planner}"))
+                                     bootstrap_seed(seed, f"runs:{name}:{planner}"), houses_of(keys))
         out.update({f"{name}_diff": v, f"{name}_diff_ci_lo": lo, f"{name}_diff_ci_hi": hi})
     names = (planner, NOTHING, OPTIMAL)
     if all(n in mv and n in mb for n in names):
         keys = sorted(set.intersection(*[set(t[n]) for t in (mv, mb) for n in names]))
         series = [[t[n][k] for k in keys] for t in (mv, mb) for n in names]
         v, lo, hi = joint_bootstrap(lambda a, an, ao, b, bn, bo: _position(a, an, ao) - _position(b, bn, bo),
-                                    series, n_boot, ci, bootstrap_seed(seed, f"runs:position:{planner}"))
+                                    series, n_boot, ci, bootstrap_seed(seed, f"runs:position:{planner}"),
+                                    houses_of(keys))
     else:
         v, lo, hi = NAN, NAN, NAN
     out.update({"position_diff": v, "position_diff_ci_lo": lo, "position_diff_ci_hi": hi})

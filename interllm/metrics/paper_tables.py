@@ -150,8 +150,9 @@ def table_ii_section(doc: Doc, metrics_dir: Path, temperature_results: Sequence[
               "scene as it was when the inference was made (the mission is untouched), so every inference is "
               "judged, whether or not its action ran. Accuracy counts 'unknown' as wrong; coverage = share "
               "answered; accuracy when answered is compared with chance (1/3 over easy / medium / hard) and "
-              "the majority class (always the commonest true class); the verdict says whether its 95% "
-              "bootstrap CI lies above both. The last column checks the measurement: of the judged "
+              "the majority class (always the commonest true class); the claim holds when its 95% "
+              "house-clustered bootstrap CI lies above both, does not hold when it lies below either, and "
+              "cannot be told only when it straddles the higher. The last column checks the measurement: of the judged "
               "inferences whose action also ran later, the share whose executed class equals the measured one.")
         doc.table(["temperature σ", "results", "planner", "inferences judged", "accuracy [CI]", "coverage",
                    "accuracy when answered [CI]", "chance / majority", "verdict", "paper accuracy",

@@ -133,4 +133,6 @@ def _title(doc: Doc, s: Mapping) -> None:
     doc.p(f"Input source: **{s.get('source', '?')}**. {s.get('n_runs', '?')} mission runs; γ_nav = {s.get('gamma_nav')}, γ_man = {s.get('gamma_man')}, "
           f"γ_obj = {s.get('gamma_obj')}; LLM temperature {s.get('temperature')}; "
           f"{int(100 * float(s.get('ci', 0.95)))}% percentile bootstrap CIs with B = "
-          f"{s.get('bootstrap_samples')} (seed {s.get('seed')}). All times are simulated seconds.")
+          f"{s.get('bootstrap_samples')} (seed {s.get('seed')}), clustered by house: each resample draws the "
+          "houses with replacement, then the missions within each drawn house, because missions in one house "
+          "share its layout, objects and commands. All times are simulated seconds.")

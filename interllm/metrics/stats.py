@@ -8,7 +8,7 @@ are present, and identical inputs give identical outputs.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from typing import Any, Optional
 
 import numpy as np
@@ -17,19 +17,62 @@ from interllm.core.records import MissionRecord
 from interllm.core.seeding import bootstrap_seed
 from interllm.planning.costs import encode_cost
 
-CLASSES = ("easy", "medium", "hard")
-
-
 MIN_CI_SAMPLES = 5  # fewer samples (or pairs) give a mean but no interval: it would mean nothing
 
+Clusters = Optional[Sequence[Hashable]]  # one label per sample: the house (scene) it was measured in
 
-def bootstrap_mean_ci(x: Sequence[float], n_boot: int = 2000, ci: float = 0.95, seed: int = 0
-                      ) -> tuple[float, float, float]:
+
+def resample_counts(n: int, n_boot: int, seed: int, clusters: Clusters = None) -> np.ndarray:
+    """(n_boot, n) int array: how often each of ``n`` samples appears in each bootstrap resample.
+
+    With ``clusters`` naming two or more houses the resampling is two-stage (a cluster bootstrap:
+    missions in one house share its layout, objects and commands, so they are not independent):
+    draw as many houses as there are, with replacement; then, for every house drawn, as many of its
+    samples as it holds, with replacement. With one house or ``clusters=None`` the samples are drawn
+    i.i.d. Only integer draws are used, so the counts are the same on every CPU."""
+    rng = np.random.default_rng(seed)
+    labels = None if clusters is None else [str(c) for c in clusters]
+    if labels is not None and len(labels) != n:
+        raise ValueError(f"{len(labels)} cluster labels for {n} samples")
+    houses = sorted(set(labels)) if labels is not None else []
+    if len(houses) < 2:
+        return _counts(rng.integers(0, n, size=(int(n_boot), n)), n)
+    drawn = _counts(rng.integers(0, len(houses), size=(int(n_boot), len(houses))), len(houses))
+    out = np.zeros((int(n_boot), n), dtype=np.int64)
+    for h, house in enumerate(houses):
+        members = np.array([i for i, c in enumerate(labels) if c == house])
+        k = members.size
+        draws = rng.integers(0, k, size=(int(n_boot), len(houses) * k))
+        used = np.arange(len(houses) * k)[None, :] < (drawn[:, h] * k)[:, None]
+        out[:, members] = _counts(np.where(used, draws, k), k)
+    return out
+
+
+def _counts(idx: np.ndarray, n: int) -> np.ndarray:
+    """(B, n) occurrences of 0..n−1 in each row of the (B, m) index array ``idx``; the index ``n``
+    marks an unused draw and is not counted."""
+    b = idx.shape[0]
+    flat = (idx + np.arange(b)[:, None] * (n + 1)).ravel()
+    return np.bincount(flat, minlength=b * (n + 1)).reshape(b, n + 1)[:, :n]
+
+
+def _interval(vals: np.ndarray, ci: float) -> tuple[float, float]:
+    """The percentile interval at coverage ``ci`` of the finite bootstrap values (NaNs if none)."""
+    vals = vals[np.isfinite(vals)]
+    if vals.size == 0:
+        return float("nan"), float("nan")
+    alpha = (1.0 - ci) / 2.0
+    lo, hi = np.quantile(vals, [alpha, 1.0 - alpha])
+    return float(lo), float(hi)
+
+
+def bootstrap_mean_ci(x: Sequence[float], n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
+                      clusters: Clusters = None) -> tuple[float, float, float]:
     """(mean, lo, hi): percentile bootstrap CI of the mean of ``x``.
 
-    n_boot: resamples B; ci: coverage in (0, 1); seed: Generator seed. Fewer than
-    ``MIN_CI_SAMPLES`` samples give the mean with NaN bounds (the report prints no interval); an
-    empty sample gives NaNs.
+    n_boot: resamples B; ci: coverage in (0, 1); seed: Generator seed; clusters: the house of each
+    sample (``resample_counts``: houses, then samples within them). Fewer than ``MIN_CI_SAMPLES``
+    samples give the mean with NaN bounds (the report prints no interval); an empty sample NaNs.
     """
     a = np.asarray(list(x), dtype=float)
     if a.size == 0:
@@ -37,12 +80,9 @@ def bootstrap_mean_ci(x: Sequence[float], n_boot: int = 2000, ci: float = 0.95, 
     m = float(a.mean())
     if a.size < MIN_CI_SAMPLES:
         return m, float("nan"), float("nan")
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, a.size, size=(int(n_boot), a.size))
-    means = a[idx].mean(axis=1)
-    alpha = (1.0 - ci) / 2.0
-    lo, hi = np.quantile(means, [alpha, 1.0 - alpha])
-    return m, float(lo), float(hi)
+    w = resample_counts(a.size, n_boot, seed, clusters)
+    lo, hi = _interval((w * a).sum(axis=1) / w.sum(axis=1), ci)
+    return m, lo, hi
 
 
 def improvement_pct(ref: Sequence[float], base: Sequence[float]) -> float:
@@ -53,10 +93,11 @@ def improvement_pct(ref: Sequence[float], base: Sequence[float]) -> float:
 
 
 def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int = 2000,
-                       ci: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
+                       ci: float = 0.95, seed: int = 0, clusters: Clusters = None
+                       ) -> tuple[float, float, float]:
     """(pct, lo, hi): ``improvement_pct`` of paired samples (same scene and mission at the same
-    position) with a paired percentile bootstrap CI (pairs resampled jointly); NaN bounds from fewer
-    than ``MIN_CI_SAMPLES`` pairs."""
+    position) with a paired percentile bootstrap CI (pairs resampled jointly, clustered by house
+    when ``clusters`` names the houses); NaN bounds from fewer than ``MIN_CI_SAMPLES`` pairs."""
     r = np.asarray(list(ref), dtype=float)
     b = np.asarray(list(base), dtype=float)
     if r.shape != b.shape:
@@ -66,39 +107,36 @@ def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int 
     pct = improvement_pct(r, b)
     if r.size < MIN_CI_SAMPLES:
         return pct, float("nan"), float("nan")
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, r.size, size=(int(n_boot), r.size))
-    mb = b[idx].mean(axis=1)
-    mr = r[idx].mean(axis=1)
+    w = resample_counts(r.size, n_boot, seed, clusters)
+    sb, sr = (w * b).sum(axis=1), (w * r).sum(axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        pcts = 100.0 * (mb - mr) / mb
-    pcts = pcts[np.isfinite(pcts)]
-    if pcts.size == 0:
-        return pct, float("nan"), float("nan")
-    alpha = (1.0 - ci) / 2.0
-    lo, hi = np.quantile(pcts, [alpha, 1.0 - alpha])
-    return pct, float(lo), float(hi)
+        lo, hi = _interval(100.0 * (sb - sr) / sb, ci)
+    return pct, lo, hi
 
 
 def paired_mean_diff(x: Sequence[float], y: Sequence[float], n_boot: int = 2000, ci: float = 0.95,
-                     seed: int = 0) -> tuple[float, float, float]:
+                     seed: int = 0, clusters: Clusters = None) -> tuple[float, float, float]:
     """(mean(x − y), lo, hi): the mean paired difference (same scene and mission at the same
     position, in the unit of x and y) with a paired percentile bootstrap CI (pairs resampled
-    jointly); NaN bounds from fewer than ``MIN_CI_SAMPLES`` pairs, NaNs from none."""
+    jointly, clustered by house when ``clusters`` names the houses); NaN bounds from fewer than
+    ``MIN_CI_SAMPLES`` pairs, NaNs from none."""
     a = np.asarray(list(x), dtype=float)
     b = np.asarray(list(y), dtype=float)
     if a.shape != b.shape:
         raise ValueError(f"paired samples differ in length: {a.size} vs {b.size}")
-    return bootstrap_mean_ci(a - b, n_boot, ci, seed)
+    return bootstrap_mean_ci(a - b, n_boot, ci, seed, clusters)
 
 
 def joint_bootstrap(stat: Callable[..., Any], arrays: Sequence[Sequence[float]], n_boot: int = 2000,
-                    ci: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
-    """(stat(*arrays), lo, hi): a statistic of several paired samples (one value per mission each,
-    the same missions in the same order) with a percentile bootstrap CI that resamples the missions
-    jointly for every array. ``stat`` reduces the last axis (it gets 1-D arrays for the point and
-    (n_boot, n) arrays for the resamples); resamples where it is not finite are dropped. NaN bounds
-    from fewer than ``MIN_CI_SAMPLES`` missions, NaNs from none."""
+                    ci: float = 0.95, seed: int = 0, clusters: Clusters = None
+                    ) -> tuple[float, float, float]:
+    """(stat(*sums), lo, hi): a statistic of the sums of several paired samples (one value per
+    mission each, the same missions in the same order) with a percentile bootstrap CI that resamples
+    the missions jointly for every array (clustered by house when ``clusters`` names the houses).
+    ``stat`` gets one sum per array: floats for the point, (n_boot,) arrays for the resamples, so
+    it must be a function of sums that does not depend on their scale (a ratio of sums or
+    differences of such ratios); resamples where it is not finite are dropped. NaN bounds from
+    fewer than ``MIN_CI_SAMPLES`` missions, NaNs from none."""
     arrs = [np.asarray(list(a), dtype=float) for a in arrays]
     n = arrs[0].size if arrs else 0
     if any(a.size != n for a in arrs):
@@ -106,18 +144,18 @@ def joint_bootstrap(stat: Callable[..., Any], arrays: Sequence[Sequence[float]],
     if n == 0:
         return float("nan"), float("nan"), float("nan")
     with np.errstate(divide="ignore", invalid="ignore"):
-        point = float(stat(*arrs))
+        point = float(stat(*[float(a.sum()) for a in arrs]))
         if n < MIN_CI_SAMPLES:
             return point, float("nan"), float("nan")
-        rng = np.random.default_rng(seed)
-        idx = rng.integers(0, n, size=(int(n_boot), n))
-        vals = np.asarray(stat(*[a[idx] for a in arrs]), dtype=float)
-    vals = vals[np.isfinite(vals)]
-    if vals.size == 0:
-        return point, float("nan"), float("nan")
-    alpha = (1.0 - ci) / 2.0
-    lo, hi = np.quantile(vals, [alpha, 1.0 - alpha])
-    return point, float(lo), float(hi)
+        w = resample_counts(n, n_boot, seed, clusters)
+        vals = np.asarray(stat(*[(w * a).sum(axis=1) for a in arrs]), dtype=float)
+    lo, hi = _interval(vals, ci)
+    return point, lo, hi
+
+
+def houses_of(keys: Iterable[tuple]) -> list[str]:
+    """The house (scene) of each (scene, mission) key, the clusters of a paired comparison."""
+    return [str(k[0]) for k in keys]
 
 
 def by_mission(per_mission: Iterable[Mapping], metric: str) -> dict[str, dict[tuple[str, str], float]]:
@@ -144,7 +182,8 @@ def compare_planners(per_mission: Iterable[Mapping], judge: str, metric: str = "
         keys = sorted(set(by[judge]) & set(by[base]))
         x = [by[judge][k] for k in keys]
         y = [by[base][k] for k in keys]
-        pct, lo, hi = paired_improvement(x, y, n_boot, ci, bootstrap_seed(seed, f"paired:{judge}:{base}"))
+        pct, lo, hi = paired_improvement(x, y, n_boot, ci, bootstrap_seed(seed, f"paired:{judge}:{base}"),
+                                         houses_of(keys))
         out[base] = {"pct": pct, "ci_lo": lo, "ci_hi": hi, "n_pairs": len(keys),
                      "ref_mean": float(np.mean(x)) if x else float("nan"),
                      "base_mean": float(np.mean(y)) if y else float("nan")}
@@ -152,15 +191,18 @@ def compare_planners(per_mission: Iterable[Mapping], judge: str, metric: str = "
 
 
 def group_mean_ci(rows: Iterable[Mapping], keys: Sequence[str], value: str, n_boot: int = 2000,
-                  ci: float = 0.95, seed: int = 0) -> list[dict]:
+                  ci: float = 0.95, seed: int = 0, cluster: str = "scene") -> list[dict]:
     """Mean and bootstrap CI of ``value`` per group of ``keys``: rows {keys..., mean, ci_lo, ci_hi, n},
-    sorted by the group key."""
+    sorted by the group key. The CI is clustered by each row's ``cluster`` field (the house)."""
     groups: dict[tuple, list[float]] = {}
+    houses: dict[tuple, list[str]] = {}
     for r in rows:
-        groups.setdefault(tuple(r[k] for k in keys), []).append(float(r[value]))
+        g = tuple(r[k] for k in keys)
+        groups.setdefault(g, []).append(float(r[value]))
+        houses.setdefault(g, []).append(str(r.get(cluster, "")))
     out = []
     for g in sorted(groups):
-        m, lo, hi = bootstrap_mean_ci(groups[g], n_boot, ci, bootstrap_seed(seed, f"{value}:{g!r}"))
+        m, lo, hi = bootstrap_mean_ci(groups[g], n_boot, ci, bootstrap_seed(seed, f"{value}:{g!r}"), houses[g])
         out.append({**dict(zip(keys, g, strict=True)), "mean": m, "ci_lo": lo, "ci_hi": hi, "n": len(groups[g])})
     return out
 
@@ -247,8 +289,12 @@ def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0
     - coverage = answered (not 'unknown') / judged; accuracy_known = correct / answered, with its CI;
     - the baselines for accuracy_known: chance (1/3, uniform over easy / medium / hard) and the
       majority class (always answering the commonest true class of the answered inferences);
-    - verdict: "above the baselines" when the CI of accuracy_known lies above both, "below chance"
-      when it lies below chance, else "cannot tell";
+    - verdict on the claim "the classes are right more often than a guess": "holds" when the CI of
+      accuracy_known lies above both baselines, "does not hold" when it lies below either (below
+      the majority class: always answering the commonest class does better; below chance: worse
+      than guessing), "cannot tell" only when it straddles the higher baseline;
+    - every CI resamples the missions (an inference's errors are shared with its mission's), by
+      house then mission within it (``resample_counts``);
     - confusion: "truth>predicted:count" pairs of the judged inferences;
     - truth_agreement: over judged inferences whose action also ran later, the share whose
       executed class equals the measured truth (how well the scratch measurement predicts the run).
@@ -262,10 +308,8 @@ def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0
         m = [r for r in g if int(r["judged"])]
         known = [r for r in m if r["predicted"] != "unknown"]
         nc = sum(int(r["correct"]) for r in m)
-        _, acc_lo, acc_hi = bootstrap_mean_ci([int(r["correct"]) for r in m], n_boot, ci,
-                                                bootstrap_seed(seed, f"semantic:{t}:{p}"))
-        ak, ak_lo, ak_hi = bootstrap_mean_ci([int(r["correct"]) for r in known], n_boot, ci,
-                                             bootstrap_seed(seed, f"semantic_known:{t}:{p}"))
+        _, acc_lo, acc_hi = share_ci(m, n_boot, ci, bootstrap_seed(seed, f"semantic:{t}:{p}"))
+        ak, ak_lo, ak_hi = share_ci(known, n_boot, ci, bootstrap_seed(seed, f"semantic_known:{t}:{p}"))
         truths = [str(r["truth"]) for r in known]
         majority = max((truths.count(c) for c in CLASSES), default=0) / len(truths) if truths else float("nan")
         conf: dict[str, int] = {}
@@ -290,11 +334,27 @@ def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0
     return out
 
 
+def share_ci(rows: Sequence[Mapping], n_boot: int, ci: float, seed: int) -> tuple[float, float, float]:
+    """(share, lo, hi) of ``rows`` whose "correct" is 1, with a CI that resamples the missions
+    (scene, mission) by house: the share is a ratio of per-mission sums (``joint_bootstrap``)."""
+    per: dict[tuple[str, str], list[int]] = {}
+    for r in rows:
+        c = per.setdefault((str(r["scene"]), str(r["mission"])), [0, 0])
+        c[0] += int(r["correct"])
+        c[1] += 1
+    keys = sorted(per)
+    return joint_bootstrap(lambda hits, n: hits / n, [[per[k][0] for k in keys], [per[k][1] for k in keys]],
+                           n_boot, ci, seed, houses_of(keys))
+
+
 def _verdict(lo: float, hi: float, baseline: float) -> str:
+    """Table II's verdict from accuracy_known's CI [lo, hi] against max(chance, majority)."""
     if not (np.isfinite(lo) and np.isfinite(hi)):
         return "cannot tell"
     if lo > baseline:
-        return "above the baselines"
+        return "holds"
     if hi < CHANCE:
-        return "below chance"
+        return "does not hold: below chance"
+    if hi < baseline:
+        return "does not hold: below the majority class"
     return "cannot tell"

@@ -2,7 +2,8 @@
 ``planners``), the mean curves along the mission (``cumulative.csv``, ``per_object_summary.csv``),
 the semantic-accuracy summary, and the rounding that keeps metrics.json byte-stable.
 
-Every CI is a percentile bootstrap with ``n_boot`` resamples at coverage ``ci``; each group's
+Every CI is a house-clustered percentile bootstrap (``stats.resample_counts``: houses, then the
+missions or objects within each) with ``n_boot`` resamples at coverage ``ci``; each group's
 resampling is seeded from ``seed`` and the group's label (``interllm.core.seeding.bootstrap_seed``).
 """
 
@@ -74,10 +75,12 @@ def planner_summaries(per_mission: Sequence[Mapping], per_object: Sequence[Mappi
         rows_o = [r for r in per_object if r["planner"] == p]
         d: dict[str, Any] = {"n_missions": len(rows_m), **counts[p]}
         m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_m], n_boot, ci,
-                                            bootstrap_seed(seed, f"mission:m_overall:{p}"))
+                                            bootstrap_seed(seed, f"mission:m_overall:{p}"),
+                                            [str(r["scene"]) for r in rows_m])
         d.update({"m_overall": m, "m_overall_ci_lo": lo, "m_overall_ci_hi": hi})
         m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_o], n_boot, ci,
-                                            bootstrap_seed(seed, f"object:m_overall:{p}"))
+                                            bootstrap_seed(seed, f"object:m_overall:{p}"),
+                                            [str(r["scene"]) for r in rows_o])
         d.update({"m_overall_per_object": m, "m_overall_per_object_ci_lo": lo,
                   "m_overall_per_object_ci_hi": hi})
         for k in ("cc", "d", "t_exe"):  # per mission (sums over its objects)

@@ -4,12 +4,13 @@ manipulation costs."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from interllm.metrics import claims, plots
 from interllm.metrics.compute import read_csv
-from interllm.metrics.doc import Doc, ci, fnum, ordered, pct
+from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
 
 
 def ordering_sentence(metrics: Mapping, judge: str) -> str:
@@ -64,6 +65,13 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
         rows.append([f"{ref} self-improves along the mission (vs {plots.label(b)}: gap of the last command minus "
                      f"the first, m_overall per object)", f"{fnum(v['did'])} [{fnum(v['lo'])}, {fnum(v['hi'])}] "
                      f"({v['n']} missions)", "–", v["verdict"]])
+    for key, v in sorted(metrics.get("semantic_accuracy", {}).items()):
+        if key.startswith(f"{judge}@"):
+            rows.append([f"Table II: {ref}'s cost classes are right more often than a guess (σ = {key.split('@', 1)[1]}; "
+                         "accuracy when answered [%] against chance and the majority class)",
+                         f"{pct_ci(v, 'accuracy_known')} ({v.get('n_judged')} inferences judged)",
+                         f"chance {fnum(100 * num_or_nan(v.get('chance')))}%, majority "
+                         f"{fnum(100 * num_or_nan(v.get('majority')))}%", v.get("verdict", "cannot tell")])
     inf = []  # the sigma sweep's runs when there is one (same missions per sigma), else this run
     for d in [Path(x) for x in temperature_dirs if (Path(x) / "semantic_inferences.csv").is_file()] or [metrics_dir]:
         p = Path(d) / "semantic_inferences.csv"
@@ -77,12 +85,26 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
           "by delivering fewer objects and the claim does not hold.")
     doc.table(["claim", "ours [95% CI]", "delivered difference / mission [95% CI]", "verdict"], rows)
     per_mission = read_csv(metrics_dir / "per_mission.csv") if (metrics_dir / "per_mission.csv").is_file() else []
-    need = claims.missions_needed(per_mission, judge, exclude=refs)
+    need = claims.houses_needed(per_mission, judge, exclude=refs)
     if need:
-        doc.p("Missions a paired 10% difference in m_overall needs at 80% power (α = 0.05, two-sided), from the "
-              "measured spread of the per-mission differences: " + "; ".join(
-                  f"vs {plots.label(b)} {v['n_needed']} (sd of the differences {fnum(v['sd_diff'])}, "
-                  f"{v['n_pairs']} pairs here)" for b, v in sorted(need.items())) + ".")
+        doc.p("Houses a paired 10% difference in m_overall needs at 80% power (α = 0.05, two-sided), at the "
+              "runs' missions per house, from the measured spread of the per-mission differences between "
+              "houses and within them (a design effect: missions in one house are not independent): " + "; ".join(
+                  f"vs {plots.label(b)} {_houses_text(v)}" for b, v in sorted(need.items())) + ".")
+
+
+def _houses_text(v: Mapping) -> str:
+    """One baseline's power figures (``claims.houses_needed``) as a phrase."""
+    here = f"{v['n_houses']} houses × {fnum(v['missions_per_house'], 1)} missions here"
+    if not math.isfinite(num_or_nan(v["houses_needed"])):
+        return f"cannot be estimated from one house ({here})"
+    return (f"{v['houses_needed']} houses ({v['missions_needed']} missions; sd between houses "
+            f"{fnum(v['sd_between'])}, within {fnum(v['sd_within'])}; {here})")
+
+
+def pct_ci(v: Mapping, key: str) -> str:
+    """``v[key]`` with its CI (``key``_ci_lo / _hi) as percentages."""
+    return ci(*(100 * num_or_nan(v.get(k)) for k in (key, f"{key}_ci_lo", f"{key}_ci_hi")), nd=1)
 
 
 def summary_section(doc: Doc, metrics: Mapping, judge: str) -> None:

@@ -17,7 +17,7 @@ from interllm.metrics import capability, claims, plots
 from interllm.metrics.compute import read_csv
 from interllm.metrics.deliveries import paired_runs
 from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
-from interllm.metrics.stats import paired_improvement
+from interllm.metrics.stats import houses_of, paired_improvement
 
 ENCODING_KEYS = ("llm.oracle_costs", "planner.cost_encoding")
 ENCODING_DEFAULTS = ("classes", "paper")  # the paper's: three cost classes, the paper's text encoding
@@ -51,7 +51,7 @@ def paired_reduction(base_dir: Path, other_dir: Path, planner: str, label: str) 
     base, other = per_mission(base_dir), per_mission(other_dir)
     keys = sorted(k for k in base if k in other)
     change, lo, hi = paired_improvement([other[k] for k in keys], [base[k] for k in keys],
-                                        seed=bootstrap_seed(0, label))
+                                        seed=bootstrap_seed(0, label), clusters=houses_of(keys))
     return len(keys), change, lo, hi
 
 
@@ -63,7 +63,7 @@ def m_ablation_section(doc: Doc, m_results: Sequence[tuple[str, str | os.PathLik
         return
     doc.h(2, "Ablation over M (plan candidates)")
     base_lab, base_dir = next(((lab, d) for lab, d, _ in got if lab == "M=3"), (got[0][0], got[0][1]))
-    doc.p(f"Paired against {base_lab} on the same missions: reduction of m_overall, 95% bootstrap CI.")
+    doc.p(f"Paired against {base_lab} on the same missions: reduction of m_overall, 95% house-clustered bootstrap CI.")
     rows = []
     for lab, d_dir, mj in got:
         d = mj.get("planners", {}).get(judge, {})
@@ -87,7 +87,7 @@ def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str,
     doc.h(2, "Cost-estimate variants (planner.nav_estimate)")
     doc.p(f"{plots.label(judge)} with each variant on the same missions as this run ({current}; paper_sum is "
           f"the paper's equation); change = paired reduction of m_overall against {current} (positive: the "
-          f"variant is cheaper), 95% bootstrap CI.")
+          f"variant is cheaper), 95% house-clustered bootstrap CI.")
     this = read_json(metrics_dir / "metrics.json")["planners"].get(judge, {})
 
     def row(lab: str, m: Mapping, change: str, n_pairs: str) -> list[str]:
@@ -220,7 +220,7 @@ def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics
     doc.p(f"{ref} in runs that differ only in llm.oracle_costs (classes: the paper's three cost classes; numeric: "
           "the measured cost) and/or planner.cost_encoding (paper; expected: plus γ_obj × the chance the action "
           f"fails outright). Each variant is paired against {BASE_ENCODING} of its group on the missions both ran "
-          "(variant − base; 95% paired bootstrap CIs; the position difference resamples the missions jointly for "
+          "(variant − base; 95% paired house-clustered bootstrap CIs; the position difference resamples the missions jointly for "
           f"{ref} and both anchors of both runs).")
     rows = []
     for g in sorted(groups):
