@@ -30,7 +30,7 @@ from interllm.config_types import choice as _choice
 # llm.cache_mode (interllm/llm/cache.py); retry_failures: readwrite, but failed answers are asked again
 CACHE_MODES = ("readwrite", "replay", "off", "retry_failures")
 NAV_ESTIMATES = ("paper_sum", "weighted_mean", "prior")  # interllm/planning/costs.py
-SCENE_SIZES = ("paper", "large", "huge", "tiny", "custom")
+SCENE_SIZES = ("paper", "medium", "large", "huge", "tiny", "custom")
 SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/floor_plans.py)
 OBJECT_DESIGNS = ("graded", "legacy")  # scene.object_design (interllm/scene/graded_objects.py, surface_objects.py)
 MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stages/feasibility.py)

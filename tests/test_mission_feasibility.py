@@ -226,3 +226,18 @@ def test_the_lazy_measurement_draws_the_missions_of_measuring_everything(k, per_
              for m in (full, lazy)]
     assert [(m, [(f.command, f.matched, f.status) for f in fills]) for m, fills in draws[0]] == \
         [(m, [(f.command, f.matched, f.status) for f in fills]) for m, fills in draws[1]]
+
+
+def test_the_papers_mission_grows_to_the_commands_the_measurement_fills():
+    """Asked for 5 commands, mission 0 keeps the paper's three and appends two the measurement fills
+    with distinct instances; a command sharing all its instances with one already in is left out."""
+    scene = generate_scene(scene_config("paper"), 0)
+    cfg = _cfg(mission={"n_missions": 1, "commands_per_mission": 5})
+    ful = Fulfillable(objects={"breakfast": ("b1", "b2", "b3"), "meeting": ("p1", "p2", "p3"),
+                               "reading": ("r1", "r2", "r3"), "movie": ("m1", "m2", "m3"),
+                               "gym": ("g1", "g2", "g3"), "homework": ("p1", "p2", "p3")},
+                      capacity={c: 3 for c in ("breakfast", "meeting", "reading", "movie", "gym", "homework")})
+    (m0, fills), = draw_missions(scene, cfg.mission, fulfillable=ful)
+    assert [c.id for c in m0.commands][:3] == ["breakfast", "meeting", "reading"]
+    assert sorted(c.id for c in m0.commands[3:]) == ["gym", "movie"]
+    assert all(f.status == "ok" and f.n_objects == 3 for f in fills)

@@ -111,3 +111,16 @@ def test_start_poses_keep_the_true_footprint_clear(scene):
     for m in missions:
         world.reset(m)
         assert world.physics.base_contacts() == [], m.start_pose
+
+
+@pytest.mark.parametrize("feasibility", ["measured", "off"])
+def test_the_papers_mission_grows_to_the_commands_asked_for(feasibility):
+    """Mission 0 starts with the paper's three commands; asking for more appends further ones, so a
+    long-mission experiment (mission.commands_per_mission = 6) has no 3-command mission among its own."""
+    s = generate_scene(scene_config("large", seed=0), 0)
+    ms = generate_missions(s, MissionConfig(n_missions=2, commands_per_mission=6, feasibility=feasibility))
+    ids = [c.id for c in ms[0].commands]
+    assert ids[:3] == ["breakfast", "meeting", "reading"] and len(ids) == 6 == len(set(ids))
+    assert len(ms[1].commands) == 6
+    short = generate_missions(s, MissionConfig(n_missions=1, feasibility=feasibility))
+    assert [c.id for c in short[0].commands] == ids[:3]

@@ -268,7 +268,8 @@ def _measured_commands(scene_id: str, index: int, ok: list[str], wanted: list[st
                        rng: np.random.Generator, fulfillable: Fulfillable) -> list[str]:
     """The command ids of mission ``index`` under the measurement, among ``ok`` (those it fills with at
     least one object): the ``wanted`` ones (the paper's) it fills with k objects, the others replaced
-    (one log line); or commands in a random order, each kept when it and the mission's commands
+    (one log line), then more up to ``n`` as below when ``n`` is more than the paper's; or commands in
+    a random order, each kept when it and the mission's commands
     still all get k distinct objects (``_fits``). When fewer than ``n`` fit, the rest in the same
     order that still get an object, to be reduced (``_fills``); never the same command twice. Only
     the wanted ones can end up with no object (dropped)."""
@@ -276,7 +277,7 @@ def _measured_commands(scene_id: str, index: int, ok: list[str], wanted: list[st
     full = [c for c in perm if fulfillable.fill(c, k) >= k]
     ids = [c for c in wanted if c in full]
     missing = [c for c in wanted if c not in full]
-    goal = len(wanted) if wanted else n
+    goal = max(len(wanted), n)  # the paper's commands first, then more to reach n
     for c in full:
         if len(ids) < goal and c not in ids and _fits(ids + [c], k, fulfillable):
             ids.append(c)
@@ -323,7 +324,8 @@ def _fills(scene_id: str, index: int, ids: list[str], k: int, fulfillable: Fulfi
 def _mission_commands(scene_id: str, index: int, ok: list[str], wanted: list[str], *, n: int, k: int,
                       rng: np.random.Generator) -> list[str]:
     """The command ids of mission ``index``: the ``wanted`` ones (the paper's) the house can host, the
-    others replaced by supported catalog commands (one log line says which and why), or ``n`` drawn
+    others replaced by supported catalog commands (one log line says which and why), then drawn ones
+    up to ``n`` when ``n`` is more than the paper's; or ``n`` drawn
     from the supported ones; never the same command twice, so fewer than ``n`` when the house
     supports fewer (said in one log line)."""
     if wanted:
@@ -335,6 +337,8 @@ def _mission_commands(scene_id: str, index: int, ok: list[str], wanted: list[str
             log.warning("scene %s mission m%03d: the paper's command(s) %s need target furniture or %d objects "
                         "the house lacks; replaced by %s", scene_id, index, missing, k, repl or "nothing")
         ids += repl
+        if len(ids) < n:  # the paper's commands first, then more to reach n (no draw otherwise)
+            ids += [c for c in (ok[int(j)] for j in rng.permutation(len(ok))) if c not in ids][:n - len(ids)]
     else:
         ids = [ok[int(j)] for j in rng.permutation(len(ok))[:n]]
     if len(ids) < n:
