@@ -23,7 +23,7 @@ LLAMA_WHEELS := .wheels/llama-cpp-python-$(LLAMA_KEY)
 LLAMA_STAMP := $(VENV)/.llama-$(LLAMA_KEY)
 JOBS := $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: install install-llama repro test test-ci test-all lint bench params clean-cache lock
+.PHONY: mechanism install install-llama repro test test-ci test-all lint bench params clean-cache lock
 
 install: $(VENV)/.installed
 
@@ -100,6 +100,18 @@ test-all: install
 
 lint: install
 	$(VENV)/bin/ruff check .
+
+# The mechanism experiments: conf/experiment/mechanism.yaml at oracle error 0 and 0.25, and
+# conf/experiment/mechanism_model.yaml (the embedded model on the default houses); each run's
+# metrics and report are copied to data/mechanism/<run>/ (committed; check them with
+# `interllm results diff --file data/mechanism/oracle_error_0/metrics/metrics.json`).
+MECHANISM_ERRORS ?= 0,0.25
+mechanism: install
+	rm -rf multirun/mechanism
+	$(PY) -m pipeline.run -m experiment=mechanism llm.oracle_error=$(MECHANISM_ERRORS) \
+	    hydra.sweep.dir=multirun/mechanism 'hydra.sweep.subdir=oracle_error_$${llm.oracle_error}'
+	$(PY) -m pipeline.run experiment=mechanism_model hydra.run.dir=multirun/mechanism/embedded
+	$(PY) -m pipeline.collect_runs multirun/mechanism data/mechanism
 
 # Recompose params.yaml from conf/ after editing conf/ by hand (dvc exp run does it itself).
 params: install

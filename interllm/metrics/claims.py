@@ -61,6 +61,13 @@ def anchors(metrics: Mapping) -> set[str]:
             if isinstance(d, Mapping) and d.get("anchor", d.get("reference"))}
 
 
+def set_aside(metrics: Mapping) -> set[str]:
+    """The planners the claims leave out: the anchors and the ablation variants (planners flagged
+    "ablates": they are judged against the planner they ablate, in the mechanism table)."""
+    return anchors(metrics) | {p for p, d in metrics.get("planners", {}).items()
+                               if isinstance(d, Mapping) and d.get("ablates")}
+
+
 def deliveries(metrics: Mapping) -> dict[str, tuple[float, float, float]]:
     """{baseline: (delivered difference, lo, hi)} [objects per mission, Inter-LLM − baseline] from
     ``metrics.json`` "comparisons" (empty when the file has none)."""
@@ -77,7 +84,7 @@ def delivers_fewer(delivered: tuple[float, float, float] | None) -> bool:
 def ordering(metrics: Mapping) -> dict:
     """{verdict, improvements {baseline: (pct, lo, hi)}, deliveries {baseline: (diff, lo, hi)},
     verdicts {baseline: verdict}} over the baselines (anchors aside) (module doc)."""
-    refs = anchors(metrics)
+    refs = set_aside(metrics)
     imp = {k.split("_vs_", 1)[1]: (_num(v.get("pct")), _num(v.get("ci_lo")), _num(v.get("ci_hi")))
            for k, v in metrics.get("improvement", {}).items()}
     imp = {b: v for b, v in imp.items() if b not in refs}

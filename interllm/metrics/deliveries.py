@@ -59,9 +59,11 @@ def is_anchor(planner: str) -> bool:
 
 
 def shown(planner: str) -> dict[str, Any]:
-    """What metrics.json keeps of how the runs show ``planner``: "anchor", "label", "color", "order"."""
+    """What metrics.json keeps of how the runs show ``planner``: "anchor", "label", "color", "order",
+    and "ablates" for an ablation variant (the planner it removes one part of)."""
     t = planner_info.current()
-    return {"anchor": t.is_anchor(planner), **t.shown(planner)}
+    ablates = t.ablates(planner)
+    return {"anchor": t.is_anchor(planner), **t.shown(planner), **({"ablates": ablates} if ablates else {})}
 
 
 def anchor_planners(names: Iterable[str]) -> list[str]:

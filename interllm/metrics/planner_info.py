@@ -30,6 +30,7 @@ class PlannerInfo:
     color: str | None  # its matplotlib colour (None: the next one)
     order: float  # tables and figures list planners by it (then by name)
     anchor: bool  # nothing / optimal: shown, never judged
+    ablates: str | None = None  # a variant of this planner with one part removed (paired against it)
 
 
 class PlannerTable:
@@ -40,7 +41,7 @@ class PlannerTable:
 
     @classmethod
     def from_json(cls, data: Mapping, where: str) -> PlannerTable:
-        """From ``{name: {"label", "color", "order", "anchor"}}`` (``runs/planners.json``, or the
+        """From ``{name: {"label", "color", "order", "anchor"[, "ablates"]}}`` (``runs/planners.json``, or the
         planners of a ``metrics.json``: other keys are ignored, a planner without a label is left out)."""
         out = {}
         for name, d in data.items():
@@ -49,7 +50,8 @@ class PlannerTable:
             try:
                 out[str(name)] = PlannerInfo(str(d["label"]), None if d.get("color") is None else str(d["color"]),
                                              math.inf if d.get("order") is None else float(d["order"]),
-                                             bool(d.get("anchor", False)))
+                                             bool(d.get("anchor", False)),
+                                             None if d.get("ablates") is None else str(d["ablates"]))
             except (TypeError, ValueError) as e:
                 raise PlannerTableError(f"{where}: planner {name!r}: {e}; rerun the missions stage "
                                         f"(dvc repro missions) to rewrite it") from None
@@ -73,6 +75,11 @@ class PlannerTable:
     def is_anchor(self, name: str) -> bool:
         e = self.entries.get(name)
         return bool(e is not None and e.anchor)
+
+    def ablates(self, name: str) -> str | None:
+        """The planner ``name`` removes one part of (an ablation variant), else None."""
+        e = self.entries.get(name)
+        return None if e is None else e.ablates
 
     def ordered(self, names: Iterable[str]) -> list[str]:
         """``names`` in report order: the table's order, then by name."""

@@ -191,3 +191,37 @@ def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: lis
     ax2.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def learning_curve(mechanism: Mapping[str, Mapping], path: str | os.PathLike) -> Path:
+    """Per command index, full − variant of objects delivered and of the cost per delivered object
+    [s / object] for every ablation variant (metrics.json's "mechanism"), with house-clustered
+    paired CIs as error bars."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 3.6))
+    panels = (("n_fulfilled_diff", "Δ objects delivered (full − variant)"),
+              ("cost_per_delivered_diff", "Δ cost per delivered object [s] (full − variant)"))
+    for ax, (key, ylab) in zip(axes, panels, strict=True):
+        for j, (variant, d) in enumerate(sorted(mechanism.items())):
+            rows = d.get("by_command", [])
+            xs = np.array([int(r["command_index"]) for r in rows], dtype=float) + 0.08 * (j - 1)
+            m = np.array([_num(r.get(key)) for r in rows])
+            lo = np.array([_num(r.get(f"{key}_ci_lo")) for r in rows])
+            hi = np.array([_num(r.get(f"{key}_ci_hi")) for r in rows])
+            err = np.vstack([np.clip(np.nan_to_num(m - lo), 0, None), np.clip(np.nan_to_num(hi - m), 0, None)])
+            ax.errorbar(xs, m, yerr=err, marker="o", capsize=2, color=color(variant), label=label(variant))
+        ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set_xlabel("command index in the mission")
+        ax.set_ylabel(ylab, fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("What each removed part costs along the mission (mean, house-clustered paired CI)", fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _num(v) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")

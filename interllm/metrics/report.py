@@ -33,6 +33,7 @@ from interllm.io import atomic_write_text, ensure_dir, read_json
 from interllm.metrics import (
     delivery_sections,
     figure_sections,
+    mechanism_sections,
     paper_tables,
     planner_info,
     summary_sections,
@@ -110,6 +111,9 @@ def _write_report(metrics: dict, judge: str, metrics_dir: Path, scenes_dir: Path
     figures += figure_sections.trajectories_section(doc, runs_dir, scene_ids, fig_dir)
     figure_sections.run_logs_section(doc, runs_dir, out_dir)
 
+    f = mechanism_sections.mechanism_section(doc, metrics, fig_dir)
+    if f is not None:
+        figures.append(f)
     paper_tables.table_ii_section(doc, metrics_dir, temperature_results)
     sweep_sections.m_ablation_section(doc, m_results, judge)
     sweep_sections.estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], judge,

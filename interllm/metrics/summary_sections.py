@@ -19,7 +19,7 @@ def ordering_sentence(metrics: Mapping, judge: str) -> str:
     the judged planner has its CI above 0 and it does not deliver significantly fewer objects, does not
     hold when one has its CI below 0 (or the lower m_overall came from delivering fewer objects),
     and otherwise the runs cannot tell (the mean rank alone decides nothing)."""
-    refs = claims.anchors(metrics)
+    refs = claims.set_aside(metrics)
     pl = {p: d for p, d in metrics.get("planners", {}).items() if p not in refs}
     if judge not in pl or len(pl) < 2:
         return (f"The paper's ordering ({plots.label(judge)} best on m_overall) cannot be judged: "
@@ -44,7 +44,7 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
     """The paper's claims beside our figures, each with its CI, the paired delivered difference where
     the claim is about m_overall, and a verdict (``metrics.claims``; anchors are not claimants)."""
     ref = plots.label(judge)
-    refs = claims.anchors(metrics)
+    refs = claims.set_aside(metrics)
     doc.h(2, "The paper's claims")
     rows = []
     o = claims.ordering(metrics)
@@ -61,7 +61,8 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
         rows.append([f"{ref} improves m_overall by 30% over {plots.label(b)}",
                      f"{fnum(v['pct'])}% [{fnum(v['lo'])}, {fnum(v['hi'])}]", delivered(b), v["verdict"]])
     per_command = read_csv(metrics_dir / "per_command.csv") if (metrics_dir / "per_command.csv").is_file() else []
-    for b, v in sorted(claims.self_improvement(per_command, judge, exclude=refs).items()):
+    # the no-learning variant is the baseline that isolates learning: only the anchors are left out here
+    for b, v in sorted(claims.self_improvement(per_command, judge, exclude=claims.anchors(metrics)).items()):
         rows.append([f"{ref} self-improves along the mission (vs {plots.label(b)}: gap of the last command minus "
                      f"the first, m_overall per object)", f"{fnum(v['did'])} [{fnum(v['lo'])}, {fnum(v['hi'])}] "
                      f"({v['n']} missions)", "–", v["verdict"]])

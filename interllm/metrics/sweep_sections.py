@@ -162,7 +162,7 @@ def capability_section(doc: Doc, metrics: Mapping, oracles: Sequence[tuple[float
     model = _source_row(metrics, judge)
     sweep = [(e, _source_row(m, judge)) for e, m in got]
     planners = ordered({p for _, r in sweep for p in r["planners"]} | set(model["planners"]))
-    refs = claims.anchors(metrics) | {p for _, m in got for p in claims.anchors(m)}
+    refs = claims.set_aside(metrics) | {p for _, m in got for p in claims.set_aside(m)}
     baselines = [p for p in planners if p != judge and p not in refs]
     doc.h(2, "LLM capability: the oracle sweep and this run's model")
     doc.p("The same missions with llm=oracle: object relevance and target furniture from each command's goal, "

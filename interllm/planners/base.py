@@ -24,19 +24,21 @@ from interllm.scene.graph import Command
 # filled by @PLANNERS.register in each planner's module; the built-in ones are imported on the first lookup
 PLANNERS: Registry = Registry("planner", "planner.names", builtins=(
     "interllm.planners.sayplan", "interllm.planners.moma_llm", "interllm.planners.inter_llm",
-    "interllm.planners.nothing", "interllm.planners.optimal"))
+    "interllm.planners.nothing", "interllm.planners.optimal", "interllm.planners.inter_llm_ablations"))
 
 
 def shown_planners(names: Iterable[str]) -> dict[str, dict[str, Any]]:
     """How tables and figures show each of ``names``, from its registration: {name: {"label", "color",
-    "order", "anchor"}} (anchor: registered with ``anchor=True``, as ``nothing`` and ``optimal`` are:
-    shown beside the others, never judged). The missions stage writes it beside the runs
+    "order", "anchor"[, "ablates"]}} (anchor: registered with ``anchor=True``, as ``nothing`` and ``optimal`` are:
+    shown beside the others, never judged; ablates: the planner a variant removes one part of). The missions stage writes it beside the runs
     (``runs/planners.json``), so the metrics and the report read it without loading planner code."""
     out = {}
     for name in sorted(set(names)):
         e = PLANNERS.entry(name)
         out[name] = {"label": e.label, "color": e.meta.get("color"), "order": e.meta.get("order", 99),
                      "anchor": bool(e.meta.get("anchor", False))}
+        if e.meta.get("ablates"):  # a variant of another planner with one part removed: paired against it
+            out[name]["ablates"] = str(e.meta["ablates"])
     return out
 
 

@@ -113,12 +113,14 @@ class PlannerContext:
     def n_objects(self, command: Command) -> int:
         return int(command.goal.n_objects)
 
-    def infer_cost(self, action: Action, command: Command) -> CostInference:
-        """The proposer's cost class of a manipulation from the known costs, beside its ground truth
-        (the world's scratch measurement of the same action now; Table II judges every inference)."""
+    def infer_cost(self, action: Action, command: Command, known: KnownCosts | None = None) -> CostInference:
+        """The proposer's cost class of a manipulation from the known costs (``known``, default the
+        planner's memory), beside its ground truth (the world's scratch measurement of the same
+        action now; Table II judges every inference)."""
+        known = self.memory if known is None else known
         truth = self.world.measure_manipulation(action)
-        label = self.proposer.costs.infer(action, self.world.scene, self.memory,
-                                          seed_parts=(self.mission.id, command.id, len(self.memory)),
+        label = self.proposer.costs.infer(action, self.world.scene, known,
+                                          seed_parts=(self.mission.id, command.id, len(known)),
                                           context=self.labels(command))
         estimate = estimate_of(self.proposer.costs, action, label)
         if truth is None:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from interllm.core.actions import Plan, State, apply_effects, plan_to_list
+from interllm.core.actions import Action, Plan, State, apply_effects, plan_to_list
 from interllm.planners.base import PLANNERS, CommandResult
 from interllm.planners.context import PlannerContext
 from interllm.planners.execution import execute_plan, finish, new_result
@@ -35,6 +35,7 @@ from interllm.planning.costs import (
     plan_total,
     unknown_manipulation_estimate,
 )
+from interllm.planning.memory import KnownCosts
 from interllm.scene.graph import Command
 
 
@@ -46,16 +47,26 @@ def robot_xy(world) -> np.ndarray:
 class InterLLMPlanner:
     name = "inter_llm"
 
+    # ---- what the known costs reach (``inter_llm_ablations`` overrides these and ``select``) ----
+    def known_for_proposals(self, ctx: PlannerContext) -> KnownCosts:
+        """The known costs the proposal prompts of a later command carry."""
+        return ctx.memory
+
+    def known_for(self, action: Action, state: State, ctx: PlannerContext) -> KnownCosts:
+        """The known costs an estimate of ``action`` in ``state`` may draw on: all of them, so a cost
+        carries over to similar paths (navigation) and similar actions (the LLM's inference)."""
+        return ctx.memory
+
     # ---- proposals ----------------------------------------------------------------------
     def propose(self, command: Command, ctx: PlannerContext) -> tuple[list[Plan], str]:
         """The command's candidates and where they come from: the shared initial candidates
         (first command) or proposed now from the current state and the known costs."""
-        return ctx.candidates(command, known=ctx.memory)
+        return ctx.candidates(command, known=self.known_for_proposals(ctx))
 
     # ---- estimation ---------------------------------------------------------------------
     def estimate(self, plan: Plan, command: Command, ctx: PlannerContext, paths: dict, labels: dict,
                  result: CommandResult) -> PlanEstimate:
-        world, cfg, mem = ctx.world, ctx.cfg, ctx.memory
+        world, cfg = ctx.world, ctx.cfg
         state: State = world.state
         prev = None  # previous furniture (None: start from the robot's pose)
         nav: list[CostEstimate] = []
@@ -66,7 +77,8 @@ class InterLLMPlanner:
                 if key not in paths:
                     start = robot_xy(world) if prev is None else world.anchor(prev)
                     paths[key] = world.presumed_path(start, a.furniture)
-                est, src = estimate_navigation(paths[key], mem, cfg.epsilon_d, cfg.nav_estimate, ctx.base_speed)
+                est, src = estimate_navigation(paths[key], self.known_for(a, state, ctx), cfg.epsilon_d,
+                                               cfg.nav_estimate, ctx.base_speed)
                 nav.append(CostEstimate(str(a), "navigate", est, src))
                 prev = a.furniture
                 state = apply_effects(a, state, world.scene.furniture_rooms)
@@ -83,7 +95,7 @@ class InterLLMPlanner:
         """ĉ_man of one pickup or place in ``state``: its known cost when the (action, state) pair was
         measured, else the LLM's inferred class decoded (once per pair; ``inferences`` memoises),
         with ``planner.cost_encoding=expected`` plus the expected loss of the object."""
-        cfg, mem = ctx.cfg, ctx.memory
+        cfg, mem = ctx.cfg, self.known_for(a, state, ctx)
         rec = mem.manipulation_record(a, state)
         if rec is not None:
             est = CostEstimate(str(a), a.kind, rec.cost, "known", encode_cost(rec.cost), True)
@@ -91,7 +103,7 @@ class InterLLMPlanner:
         else:
             key = (str(a), state.describe())
             if key not in inferences:
-                inference = ctx.infer_cost(a, command)
+                inference = ctx.infer_cost(a, command, known=mem)
                 inferences[key] = inference
                 result.cost_inferences.append(inference)
             inf = inferences[key]
@@ -114,7 +126,7 @@ class InterLLMPlanner:
         ctx.event("/planner/candidates", command, {"candidates": [plan_to_list(p) for p in proposed],
                                                    "source": source})
         feasible: list[Plan] = []
-        req = ctx.request(command, known=ctx.memory)
+        req = ctx.request(command, known=self.known_for_proposals(ctx))
         for j, plan in enumerate(proposed):
             ok = check_and_repair(ctx, req, plan, result, index=j, max_rounds=ctx.cfg.max_regenerations)
             if ok is not None:
@@ -123,14 +135,20 @@ class InterLLMPlanner:
         if not feasible:
             result.notes.append("no feasible candidate: nothing executed for this command")
             return finish(ctx, result)
+        best = self.select(feasible, command, ctx, result)
+        result.selected_plan = feasible[best]
+        ctx.event("/planner/selected", command, {
+            "index": best, "plan": plan_to_list(feasible[best]),
+            "estimate": result.estimated_costs[best] if result.estimated_costs else None})
+        execute_plan(ctx, command, feasible[best], result)
+        return finish(ctx, result)
+
+    def select(self, feasible: list[Plan], command: Command, ctx: PlannerContext, result: CommandResult) -> int:
+        """Estimate ĉ_total of every feasible candidate (recorded on ``result`` and the run log) and
+        return the index of the lowest (ties: the first)."""
         paths: dict = {}
         labels: dict = {}
         estimates = [self.estimate(p, command, ctx, paths, labels, result) for p in feasible]
         result.estimated_costs = [e.total for e in estimates]
         ctx.event("/planner/estimates", command, {"estimates": [e.to_dict() for e in estimates]})
-        best = min(range(len(feasible)), key=lambda i: (estimates[i].total, i))
-        result.selected_plan = feasible[best]
-        ctx.event("/planner/selected", command, {"index": best, "plan": plan_to_list(feasible[best]),
-                                                 "estimate": estimates[best].total})
-        execute_plan(ctx, command, feasible[best], result)
-        return finish(ctx, result)
+        return min(range(len(estimates)), key=lambda i: (estimates[i].total, i))

@@ -118,5 +118,16 @@ class KnownCosts:
         """The known record of (action, state), or None."""
         return self._man.get((str(action), state.describe()))
 
+    def only(self, action: Action, state: State) -> KnownCosts:
+        """A copy holding only the record of exactly (``action``, ``state``), if there is one: known
+        costs used for the identical action and state, never carried to similar ones."""
+        out = KnownCosts()
+        key = (str(action), state.describe())
+        if key in self._nav:
+            out._nav[key] = self._nav[key]
+        if key in self._man:
+            out._man[key] = self._man[key]
+        return out
+
     def to_dict(self) -> dict:
         return {"naved": [r.to_dict() for r in self.naved], "maned": [r.to_dict() for r in self.maned]}

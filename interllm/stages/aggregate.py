@@ -19,7 +19,7 @@ from typing import Any, Optional
 from interllm.config import ExperimentConfig
 from interllm.core.records import MissionRecord
 from interllm.io import read_json, write_json
-from interllm.metrics import capability, deliveries, manipulation, planner_info, stats, summary
+from interllm.metrics import capability, deliveries, manipulation, mechanism, planner_info, stats, summary
 from interllm.metrics.compute import (
     PER_COMMAND_FIELDS,
     PER_MISSION_FIELDS,
@@ -175,7 +175,8 @@ def _metrics_json(records: Sequence[MissionRecord], scenes: Mapping[str, Mapping
     dl = deliveries.delivery_metrics(records, po, pm, gamma_nav=g.nav, gamma_man=g.man,
                                      gammas=list(s.gamma_obj_values), judge=s.judge, n_boot=s.n_boot,
                                      ci=s.ci, seed=s.seed)
-    claimants = [r for r in pm if not dl["planners"][r["planner"]]["anchor"]]  # anchors are not judged
+    aside = {p for p, d in dl["planners"].items() if d["anchor"] or d.get("ablates")}
+    claimants = [r for r in pm if r["planner"] not in aside]  # anchors and ablation variants are not judged
     calls = {stage: call_log_counts(path) for stage, path in sorted(logs.items())}
     planners = summary.planner_summaries(pm, po, failed_calls=calls.get("missions", {}).get("failed_by_planner", {}),
                                          deliveries=dl["planners"], n_boot=s.n_boot, ci=s.ci, seed=s.seed)
@@ -187,6 +188,8 @@ def _metrics_json(records: Sequence[MissionRecord], scenes: Mapping[str, Mapping
         "anchors": dl["anchors"],
         "gamma_obj_sensitivity": dl["gamma_obj_sensitivity"],
         "candidate_diversity": dl["candidate_diversity"],
+        "mechanism": mechanism.mechanism_table(pm, tables["per_command"], dl["planners"], g.nav, s.n_boot, s.ci,
+                                               s.seed),
         "semantic_accuracy": summary.semantic_summary(tables["semantic_accuracy"]),
         "manipulation": manipulation.manipulation_summary(tables["per_manipulation"]),
         "answers": capability.answer_accuracy(records, scenes),
