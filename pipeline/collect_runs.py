@@ -1,6 +1,7 @@
 """Copy what a multirun's jobs measured into a committed folder: for every job folder under SRC that
-holds ``data/metrics/metrics.json``, its metrics (metrics.json and the per-mission, per-command and
-per-object tables the report pairs) and its report go to DST/<job folder name>/. Earlier copies of
+holds ``data/metrics/metrics.json``, its metrics (metrics.json and the per-mission and per-command
+tables the mechanism comparison pairs) and its Markdown report with its figures go to
+DST/<job folder name>/. Earlier copies of
 the same jobs are replaced whole (written beside, then renamed).
 
     python -m pipeline.collect_runs multirun/mechanism data/mechanism
@@ -12,7 +13,8 @@ import shutil
 import sys
 from pathlib import Path
 
-METRICS = ("metrics.json", "per_mission.csv", "per_command.csv", "per_object.csv")
+METRICS = ("metrics.json", "per_mission.csv", "per_command.csv")  # what the mechanism tables pair
+REPORT_SKIPS = ("report.html",)  # the Markdown report and its figures suffice; the HTML inlines them again
 
 
 def collect(src: Path, dst: Path) -> list[Path]:
@@ -27,7 +29,7 @@ def collect(src: Path, dst: Path) -> list[Path]:
         (tmp / "metrics").mkdir(parents=True)
         for name in METRICS:
             shutil.copy2(job / "data" / "metrics" / name, tmp / "metrics" / name)
-        shutil.copytree(job / "data" / "report", tmp / "report")
+        shutil.copytree(job / "data" / "report", tmp / "report", ignore=shutil.ignore_patterns(*REPORT_SKIPS))
         final = dst / job.name
         shutil.rmtree(final, ignore_errors=True)
         tmp.rename(final)

@@ -3,15 +3,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from interllm.metrics import plots
+from interllm.metrics import claims, plots
 from interllm.metrics.doc import Doc, ci, fnum
+from interllm.metrics.summary_sections import houses_text
 
 
-def mechanism_section(doc: Doc, metrics: Mapping, fig_dir: Path) -> Path | None:
-    """The mechanism table and the learning curve (figure and table); None without variants."""
+def mechanism_section(doc: Doc, metrics: Mapping, per_mission: Sequence[Mapping], fig_dir: Path) -> Path | None:
+    """The mechanism table, the houses a 10% difference needs (``claims.houses_needed`` on
+    ``per_mission`` rows) and the learning curve (figure and table); None without variants."""
     mech = metrics.get("mechanism") or {}
     if not mech:
         return None
@@ -29,6 +31,12 @@ def mechanism_section(doc: Doc, metrics: Mapping, fig_dir: Path) -> Path | None:
                      _ci(d, "cost_per_delivered_diff", 1), _verdict(d)])
     doc.table(["variant", "full planner", "missions", "Δ delivered / mission [CI]", "Δ m_overall / mission [CI]",
                "cost / delivered, full / variant [s]", "Δ cost / delivered [CI]", "the removed part"], rows)
+    need = claims.houses_needed(per_mission, next(iter(mech.values()))["ablates"],
+                                exclude=set(metrics.get("planners", {})) - set(mech))
+    if need:
+        doc.p("Houses a paired 10% difference in m_overall needs at 80% power (α = 0.05, two-sided), at these "
+              "runs' missions per house: " + "; ".join(
+                  f"vs {plots.label(v)} {houses_text(d)}" for v, d in sorted(need.items())) + ".")
     f = plots.learning_curve(mech, fig_dir / "learning_curve.png")
     doc.img(f, "Learning curve: full − variant per command index (house-clustered paired CIs)")
     doc.h(3, "Learning curve")

@@ -111,7 +111,8 @@ def _write_report(metrics: dict, judge: str, metrics_dir: Path, scenes_dir: Path
     figures += figure_sections.trajectories_section(doc, runs_dir, scene_ids, fig_dir)
     figure_sections.run_logs_section(doc, runs_dir, out_dir)
 
-    f = mechanism_sections.mechanism_section(doc, metrics, fig_dir)
+    per_mission = read_csv(metrics_dir / "per_mission.csv") if (metrics_dir / "per_mission.csv").is_file() else []
+    f = mechanism_sections.mechanism_section(doc, metrics, per_mission, fig_dir)
     if f is not None:
         figures.append(f)
     paper_tables.table_ii_section(doc, metrics_dir, temperature_results)

@@ -91,10 +91,10 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
         doc.p("Houses a paired 10% difference in m_overall needs at 80% power (α = 0.05, two-sided), at the "
               "runs' missions per house, from the measured spread of the per-mission differences between "
               "houses and within them (a design effect: missions in one house are not independent): " + "; ".join(
-                  f"vs {plots.label(b)} {_houses_text(v)}" for b, v in sorted(need.items())) + ".")
+                  f"vs {plots.label(b)} {houses_text(v)}" for b, v in sorted(need.items())) + ".")
 
 
-def _houses_text(v: Mapping) -> str:
+def houses_text(v: Mapping) -> str:
     """One baseline's power figures (``claims.houses_needed``) as a phrase."""
     here = f"{v['n_houses']} houses × {fnum(v['missions_per_house'], 1)} missions here"
     if not math.isfinite(num_or_nan(v["houses_needed"])):
