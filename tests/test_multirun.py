@@ -82,3 +82,31 @@ def test_submitit_local_runs_two_jobs_against_one_shared_llm_cache(tmp_path):
         assert r.returncode == 0, r.stderr[-3000:]
         assert (tmp_path / f"replay{m}" / "data" / "metrics" / "metrics.json").read_bytes() == \
             (jobs[m - 1] / "data" / "metrics" / "metrics.json").read_bytes()
+
+
+def test_collect_runs_copies_each_jobs_metrics_and_report_and_replaces_older_copies(tmp_path):
+    from pipeline.collect_runs import collect
+
+    src, dst = tmp_path / "multirun", tmp_path / "data" / "mechanism"
+    for job in ("oracle_error_0.0", "oracle_error_0.25"):
+        m = src / job / "data" / "metrics"
+        m.mkdir(parents=True)
+        for name in ("metrics.json", "per_mission.csv", "per_command.csv", "per_object.csv"):
+            (m / name).write_text(f"{job} {name}")
+        (src / job / "data" / "report" / "figures").mkdir(parents=True)
+        (src / job / "data" / "report" / "report.md").write_text(job)
+        (src / job / "data" / "report" / "report.html").write_text("<html>")
+        (src / job / "data" / "report" / "figures" / "learning_curve.png").write_bytes(b"png")
+    (src / "unfinished" / "data").mkdir(parents=True)  # a job without metrics is left out
+    (dst / "oracle_error_0.0" / "stale").mkdir(parents=True)
+    got = collect(src, dst)
+    assert [p.name for p in got] == ["oracle_error_0.0", "oracle_error_0.25"]
+    one = dst / "oracle_error_0.25"
+    assert (one / "metrics" / "metrics.json").read_text() == "oracle_error_0.25 metrics.json"
+    assert sorted(p.name for p in (one / "metrics").iterdir()) == ["metrics.json", "per_command.csv",
+                                                                  "per_mission.csv"]
+    assert (one / "report" / "figures" / "learning_curve.png").is_file()
+    assert not (one / "report" / "report.html").exists()
+    assert not (dst / "oracle_error_0.0" / "stale").exists() and not list(dst.glob(".*tmp"))
+    with pytest.raises(SystemExit, match="no job under"):
+        collect(tmp_path / "empty", dst)
