@@ -3,13 +3,16 @@
     .venv/bin/python benchmarks/bench_token_floor.py                   # the quick experiment
     .venv/bin/python benchmarks/bench_token_floor.py experiment=paper  # any Hydra overrides
 
-Runs the scenes, candidates and missions stages into a temporary folder with an empty LLM cache
-(so the embedded model answers every call) and reads the call logs (``llm_calls.jsonl``) of the two
-LLM stages. Per stage and purpose it prints the calls, the prompt tokens sent, those served from the
-KV prefix cache (reused) and those evaluated (sent − reused; calibration prompts memoised within
-the process count as sent and evaluated, so this is an upper bound), the seconds the calls took
-(wall, cold) and the floor: evaluated tokens ÷ the prompt tokens/s this CPU reaches at the
-configured threads, measured in the same process on a cold context. The ratio seconds ÷ floor is
+Runs the scenes, candidates and missions stages in this process (``jobs=1``) into a temporary
+folder with an empty LLM cache, so the embedded model answers every call. The backend's prompt
+evaluation and continuation decoding are wrapped to count the tokens the model really evaluates;
+each call's count is attributed to the call the client logs next (so the candidates stage's
+unlogged preflight probe counts with that stage's first call). Per stage and purpose it prints
+the calls, the tokens sent (the call log's ``tokens_in``: prompt, calibration prompt and
+continuations), those served from the KV prefix cache (reused), those evaluated (prompt tokens not
+reused, calibration prompts not memoised, continuation tokens), the seconds the calls took (wall,
+cold) and the floor: evaluated tokens ÷ the prompt tokens/s this CPU reaches at llm.n_threads,
+measured on a cold context. The ratio seconds ÷ floor is
 how far each phase is from evaluating each prompt token once at full speed; its remainder is
 generation, scoring the continuations, and overhead.
 """
@@ -21,6 +24,7 @@ import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; in
 # isort: on
 
 import collections
+import dataclasses
 import json
 import sys
 import tempfile
@@ -31,6 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from omegaconf import OmegaConf  # noqa: E402
 
+from interllm.llm.client import LLMClient  # noqa: E402
 from interllm.llm.embedded import EmbeddedBackend  # noqa: E402
 from interllm.stages.candidates import run_candidates  # noqa: E402
 from interllm.stages.missions import run_missions  # noqa: E402
@@ -40,9 +45,9 @@ from pipeline._hydra import compose  # noqa: E402
 PROBE_TOKENS = 1024  # prompt length of the speed probe [tokens], about one cost-inference prompt
 
 
-def prompt_speed(cfg) -> float:
-    """Prompt tokens/s of the embedded model at ``cfg.llm``'s threads, cold context, best of 3."""
-    be = EmbeddedBackend(cfg.llm)
+def prompt_speed(cfg, threads: int) -> float:
+    """Prompt tokens/s of the embedded model at ``threads`` threads, cold context, best of 3."""
+    be = EmbeddedBackend(dataclasses.replace(cfg.llm, n_threads=threads))
     words = " ".join(f"kitchen_counter_{i} holds bread_{i} and mug_{i}." for i in range(400))
     toks = be.tokenize(words)[:PROBE_TOKENS]
     best = 0.0
@@ -56,24 +61,55 @@ def prompt_speed(cfg) -> float:
     return best
 
 
-def phases(paths: list[Path]) -> dict[tuple[str, str], dict[str, float]]:
-    """{(stage, purpose): {calls, sent, reused, seconds}} of the answered calls in the call logs."""
+EVALUATED = [0]  # tokens the model evaluated since the client last logged a call
+PER_CALL: list[int] = []  # evaluated tokens of each logged call, in call-log order
+
+
+def count_evaluated() -> None:
+    """Wrap the embedded backend's prompt evaluation and continuation decoding, and the client's call
+    log, so every logged call carries the tokens the model evaluated for it (``PER_CALL``)."""
+    prefill, group, log = EmbeddedBackend._prefill, EmbeddedBackend._score_group, LLMClient._log
+
+    def _prefill(self, want):
+        keep = prefill(self, want)
+        EVALUATED[0] += len(want) - keep
+        return keep
+
+    def _score_group(self, last, conts, grp):
+        EVALUATED[0] += sum(len(conts[k]) for k in grp)
+        return group(self, last, conts, grp)
+
+    def _log(self, **kw):
+        PER_CALL.append(EVALUATED[0])
+        EVALUATED[0] = 0
+        return log(self, **kw)
+
+    EmbeddedBackend._prefill, EmbeddedBackend._score_group, LLMClient._log = _prefill, _score_group, _log
+
+
+def phases(paths: list[Path], per_call: list[int]) -> dict[tuple[str, str], dict[str, float]]:
+    """{(stage, purpose): {calls, sent, reused, evaluated, seconds}} of the answered calls in the call
+    logs (``paths`` in the order they were written; ``per_call``: each logged call's evaluated tokens)."""
     out: dict[tuple[str, str], dict[str, float]] = collections.defaultdict(lambda: collections.Counter())
-    for p in paths:
-        for line in p.read_text().splitlines():
-            c = json.loads(line)
-            if c.get("cache_hit") or c.get("error"):
-                continue
-            d = out[(str(c.get("stage")), str(c.get("purpose")))]
-            d["calls"] += 1
-            d["sent"] += int(c.get("tokens_in", 0))
-            d["reused"] += int(c.get("prompt_tokens_reused", 0))
-            d["seconds"] += float(c.get("latency", 0.0))
+    lines = [json.loads(line) for p in paths for line in p.read_text().splitlines()]
+    if len(lines) != len(per_call):
+        raise SystemExit(f"{len(lines)} logged calls but {len(per_call)} counted: a call was logged elsewhere")
+    for c, ev in zip(lines, per_call, strict=True):
+        if c.get("cache_hit") or c.get("error"):
+            continue
+        d = out[(str(c.get("stage")), str(c.get("purpose")))]
+        d["calls"] += 1
+        d["sent"] += int(c.get("tokens_in", 0))
+        d["reused"] += int(c.get("prompt_tokens_reused", 0))
+        d["evaluated"] += ev if ev else int(c.get("tokens_in", 0)) - int(c.get("prompt_tokens_reused", 0))
+        d["seconds"] += float(c.get("latency", 0.0))
     return out
 
 
 def main(argv: list[str]) -> None:
     cfg = OmegaConf.to_object(compose(argv or ["experiment=quick"]))
+    cfg.jobs = 1  # in this process, so the wrapped backend counts every call
+    count_evaluated()
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         cfg.llm.cache_dir = str(out / "cache")
@@ -82,20 +118,23 @@ def main(argv: list[str]) -> None:
         run_candidates(cfg, out / "scenes", out / "candidates")
         run_missions(cfg, out / "scenes", out / "candidates", out / "runs")
         wall = time.perf_counter() - t0
-        got = phases([out / "candidates" / "llm_calls.jsonl", out / "runs" / "llm_calls.jsonl"])
-    tps = prompt_speed(cfg)
-    print(f"prompt eval: {tps:.0f} tokens/s ({cfg.llm.n_threads} threads, {PROBE_TOKENS}-token cold prompt, best of 3)")
+        got = phases([out / "candidates" / "llm_calls.jsonl", out / "runs" / "llm_calls.jsonl"], PER_CALL)
+    threads = {"candidates": cfg.llm.n_threads, "missions": cfg.llm.n_threads}  # one process: all threads
+    speed = {t: prompt_speed(cfg, t) for t in sorted(set(threads.values()) | {1})}
+    for t, v in speed.items():
+        print(f"prompt eval: {v:.0f} tokens/s at {t} thread(s) ({PROBE_TOKENS}-token cold prompt, best of 3)")
     print(f"{'stage':<11} {'purpose':<24} {'calls':>6} {'sent':>9} {'reused':>9} {'evaluated':>9} "
           f"{'seconds':>8} {'floor s':>8} {'s/floor':>7}")
     total = collections.Counter()
     for (stage, purpose), d in sorted(got.items(), key=lambda kv: -kv[1]["seconds"]):
-        ev = d["sent"] - d["reused"]
-        total.update({**d, "evaluated": ev})
+        ev = d["evaluated"]
+        tps = speed[threads.get(stage, cfg.llm.n_threads)]
+        total.update({**d, "evaluated": ev, "floor": ev / tps})
         print(f"{stage:<11} {purpose:<24} {d['calls']:>6.0f} {d['sent']:>9.0f} {d['reused']:>9.0f} {ev:>9.0f} "
               f"{d['seconds']:>8.1f} {ev / tps:>8.1f} {d['seconds'] / max(ev / tps, 1e-9):>7.2f}")
-    ev = total["evaluated"]
+    ev, floor = total["evaluated"], total["floor"]
     print(f"{'all':<36} {total['calls']:>6.0f} {total['sent']:>9.0f} {total['reused']:>9.0f} {ev:>9.0f} "
-          f"{total['seconds']:>8.1f} {ev / tps:>8.1f} {total['seconds'] / max(ev / tps, 1e-9):>7.2f}")
+          f"{total['seconds']:>8.1f} {floor:>8.1f} {total['seconds'] / max(floor, 1e-9):>7.2f}")
     print(f"reused share of the prompt tokens: {total['reused'] / max(total['sent'], 1):.1%}; "
           f"candidates + missions stages: {wall:.1f} s wall, of which LLM calls {total['seconds']:.1f} s")
 
