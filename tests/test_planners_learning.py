@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers.planners import FakeScoreClient, ListRecorder, SymbolicWorld, tiny_scene
+from helpers.planners import FakeScoreClient, ListRecorder, SymbolicWorld, two_apples
 from helpers.scenes import GENERIC, START, house, mission, nav
 
 from interllm.config import ExperimentConfig, SimConfig
@@ -17,7 +17,6 @@ from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
 from interllm.planning.costs import estimate_navigation
 from interllm.planning.memory import KnownCosts
-from interllm.scene.graph import Command, Goal, Mission, SceneObject
 from interllm.sim.world import World
 
 
@@ -63,21 +62,11 @@ def test_inter_llm_learns_the_collision_through_its_known_costs():
     assert estimates[0.5] > estimates[1.0] > 0
 
 
-def _two_apples() -> tuple:
-    s = tiny_scene()
-    f = s.furniture["sofa_1"]
-    s.objects["apple_2"] = SceneObject("apple_2", "apple", "sofa_1", (f.center[0] + 0.2, f.center[1], 0.8),
-                                       (0.1, 0.1, 0.1), "for eating")
-    c1 = Command("breakfast", "Put an apple on the dining table", Goal(("apple",), ("dining_table_1",), 1))
-    c2 = Command("snack", "Put an apple on the desk", Goal(("apple",), ("desk_1",), 1))
-    return s, Mission("m000", "tiny", (3.0, 2.0, 0.0), "dining_table_1", (c1, c2))
-
-
 def _run(name: str, fair: bool) -> tuple[dict, ListRecorder]:
     cfg = ExperimentConfig()
     cfg.llm.temperature = 0.0
     cfg.planner.fair_baselines = fair
-    scene, m = _two_apples()
+    scene, m = two_apples()
     client = FakeScoreClient()
     cands = generate_initial_candidates(scene, m, client, cfg)
     rec = ListRecorder()

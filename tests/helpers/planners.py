@@ -40,6 +40,18 @@ def tiny_scene() -> SceneGraph:
     return s
 
 
+def two_apples() -> tuple[SceneGraph, Mission]:
+    """``tiny_scene`` with a second apple on the sofa and a two-command mission that asks for one
+    apple each (on the dining table, then on the desk)."""
+    s = tiny_scene()
+    f = s.furniture["sofa_1"]
+    s.objects["apple_2"] = SceneObject("apple_2", "apple", "sofa_1", (f.center[0] + 0.2, f.center[1], 0.8),
+                                       (0.1, 0.1, 0.1), "for eating")
+    c1 = Command("breakfast", "Put an apple on the dining table", Goal(("apple",), ("dining_table_1",), 1))
+    c2 = Command("snack", "Put an apple on the desk", Goal(("apple",), ("desk_1",), 1))
+    return s, Mission("m000", "tiny", (3.0, 2.0, 0.0), "dining_table_1", (c1, c2))
+
+
 def tiny_mission(n_objects: int = 2) -> Mission:
     c1 = Command("breakfast", "Put an apple and a banana on the dining table",
                  Goal(("apple", "banana"), ("dining_table_1",), n_objects))
