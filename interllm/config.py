@@ -328,6 +328,12 @@ class ExperimentConfig:
     # metrics.seed (the bootstrap's) is not offset: replicates are judged by the same analysis
     seed: int = 0
     data_dir: str = "data"
+    # the versioned benchmark (interllm/scene/benchmark.py): houses and missions frozen under
+    # <benchmark_dir>/<benchmark>/, re-measured by the scenes stage, which reports every slot whose
+    # measured feasibility changed since; "": generate the houses and draw the missions from this
+    # run's own measurement (a simulator change then changes the missions)
+    benchmark: str = ""
+    benchmark_dir: str = "data/benchmarks"
     verbose: bool = False
     jobs: int = 0  # worker processes for the missions stage (0: one per CPU core); results do not depend on it
     scene: SceneConfig = field(default_factory=SceneConfig)
@@ -347,6 +353,10 @@ class ExperimentConfig:
             raise ConfigError(f"config key 'jobs' must be an integer >= 0 (0: one worker per CPU core), "
                               f"got {self.jobs!r}")
         _choice(self.sweep, "sweep", SWEEPS)
+        _check(self.benchmark == "" or BENCHMARK_NAME.fullmatch(self.benchmark) is not None, "benchmark",
+               f"must be '' (draw from this run's measurement) or a benchmark name: 1-64 characters of a-z, 0-9, "
+               f"'.', '_', '-', starting with a letter or digit (e.g. paper-v2), got {self.benchmark!r}")
+        _check(bool(self.benchmark_dir.strip()), "benchmark_dir", "must name the folder holding the benchmarks")
         for group in (self.scene, self.mission, self.llm, self.planner, self.sim, self.metrics):
             group.validate()
 
@@ -360,6 +370,7 @@ class ExperimentConfig:
         return dataclasses.replace(self, **offset)
 
 
+BENCHMARK_NAME = re.compile(r"[a-z0-9][a-z0-9._-]{0,63}")  # config key benchmark: one folder name
 SEED_MAX = 2**31 - 1  # the top-level seed's largest value (a 32-bit seed offset)
 SEEDED_GROUPS = ("scene", "mission", "llm", "sim")  # the groups whose seed the top-level seed offsets
 

@@ -39,6 +39,7 @@ from interllm.metrics import (
     summary_sections,
     sweep_sections,
 )
+from interllm.metrics.benchmark_check import benchmark_sentence
 from interllm.metrics.compute import read_csv
 from interllm.metrics.doc import Doc
 
@@ -93,6 +94,7 @@ def _write_report(metrics: dict, judge: str, metrics_dir: Path, scenes_dir: Path
     scene_ids = sorted({str(r["scene"]) for r in per_object})
     doc = Doc()
     _title(doc, metrics.get("settings", {}))
+    doc.p(benchmark_sentence(metrics.get("benchmark", {})))
 
     delivery_sections.headline_section(doc, metrics, Path(scenes_dir), scene_ids, judge)
     summary_sections.claims_section(doc, metrics, metrics_dir, [Path(d) for _, d in temperature_results], judge)

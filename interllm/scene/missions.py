@@ -158,6 +158,24 @@ def start_pose(scene: SceneGraph, furniture_id: str, grid, robot_radius: float,
     return (r4(x), r4(y), r4(math.atan2(f.center[1] - y, f.center[0] - x)))
 
 
+def standable_start(scene: SceneGraph, mission: Mission, grid, robot_radius: float,
+                    footprint_radius: float | None = None) -> tuple[float, float, float]:
+    """``mission.start`` if its cell is free on ``grid`` (the true grid of the configured robot) and in
+    the largest free region; else a new ``start_pose`` next to the same furniture (a frozen mission
+    run with a larger robot). MissionError when the furniture has no free start cell."""
+    labels, _ = free_components(grid)
+    rc = grid.world_to_cell(np.asarray(mission.start[:2], dtype=float))
+    if grid.is_free(rc) and labels[int(rc[0]), int(rc[1])] == largest_component(labels):
+        return mission.start
+    extra = 0.0 if footprint_radius is None else float(footprint_radius) - robot_radius
+    pose = start_pose(scene, mission.start_furniture, grid, robot_radius, labels,
+                      clear_of_obstacles(grid.free, extra, grid.resolution))
+    if pose is None:
+        raise MissionError(f"scene {scene.id!r} mission {mission.id}: no free start cell next to "
+                           f"{mission.start_furniture!r} for this robot (sim.robot_radius={robot_radius} m)")
+    return pose
+
+
 def _more_objects_advice(scene: SceneGraph) -> str:
     """How to get a scene with more objects: a generated one can be generated larger; an imported one
     (scene.import_path) needs the objects in its file, or fewer per command."""

@@ -20,6 +20,7 @@ from interllm.config import ExperimentConfig
 from interllm.core.records import MissionRecord
 from interllm.io import read_json, write_json
 from interllm.metrics import capability, deliveries, manipulation, mechanism, planner_info, stats, summary
+from interllm.metrics.benchmark_check import benchmark_summary
 from interllm.metrics.compute import (
     PER_COMMAND_FIELDS,
     PER_MISSION_FIELDS,
@@ -126,7 +127,9 @@ def write_metrics(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cf
     position, m_minus_nothing, below_nothing; anchor, label, color, order: how the runs show it,
     ``planner_info``), ``improvement`` (the judged planner's paired % improvement over every other
     planner, anchors aside), ``comparisons`` (paired m_overall and delivered differences against
-    every other planner), ``anchors``, ``gamma_obj_sensitivity`` and ``candidate_diversity``.
+    every other planner), ``anchors``, ``gamma_obj_sensitivity``, ``candidate_diversity`` and
+    ``benchmark`` (the versioned benchmark the missions come from and what changed since it was
+    frozen: ``interllm.metrics.benchmark_check``).
 
     Writes (atomically): ``metrics.json`` (DVC metrics, rounded floats, sorted keys) and the CSVs of
     ``CSV_FILES``: ``cumulative.csv`` has x = object_index, y = m_overall_cum;
@@ -144,7 +147,8 @@ def write_metrics(runs_dir: str | os.PathLike, scenes_dir: str | os.PathLike, cf
     tables = _tables(records, scenes, Path(scenes_dir), s)
     logs = dict(call_logs) if call_logs is not None else {"missions": Path(runs_dir) / "llm_calls.jsonl"}
     with planner_info.shown(planner_info.load(runs_dir)):
-        result = summary.clean(_metrics_json(records, scenes, tables, logs, s))
+        result = summary.clean({**_metrics_json(records, scenes, tables, logs, s),
+                                "benchmark": benchmark_summary(Path(scenes_dir), scenes)})
     write_json(out / "metrics.json", result)
     for name, table, fields in CSV_FILES:
         write_csv(out / name, tables[table], fields)

@@ -4,23 +4,56 @@ pick up crossed out in red)."""
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 from pathlib import Path
+from typing import Optional
 
 from interllm.config import ExperimentConfig
 from interllm.io import atomic_write_bytes, atomic_write_text, child_path, ensure_dir, write_json
 from interllm.progress import progress
+from interllm.scene.benchmark import (
+    Benchmark,
+    benchmark_section,
+    drawn_with,
+    open_benchmark,
+    pickups_changed,
+    recheck,
+)
 from interllm.scene.generator import generate_scene
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid, rasterize
-from interllm.scene.missions import draw_missions, save_missions
+from interllm.scene.missions import draw_missions, save_missions, standable_start
 from interllm.scene.render import render_topdown
 from interllm.scene.validate import load_scene_file
 from interllm.sim.build import build_world_spec
 from interllm.stages.feasibility import feasibility_record, measure_scene
 
+log = logging.getLogger(__name__)
 
-def make_scene(cfg: ExperimentConfig, index: int) -> SceneGraph:
-    """Scene ``index`` of the experiment: the imported house (scene.import_path) or a generated one."""
+
+def open_configured_benchmark(cfg: ExperimentConfig) -> Optional[Benchmark]:
+    """The benchmark the config names (``benchmark``), checked against the scene and mission config
+    it was drawn with (``cfg`` as the stages run it: seeds offset by the replicate); None when the
+    missions are drawn from this run's measurement."""
+    if not cfg.benchmark:
+        return None
+    bench = open_benchmark(cfg.benchmark_dir, cfg.benchmark)
+    bench.check_config(drawn_with(cfg.seed, cfg.scene, cfg.mission), n_scenes(cfg), cfg.mission.n_missions)
+    return bench
+
+
+def n_scenes(cfg: ExperimentConfig) -> int:
+    """Scenes of the experiment: one imported house, or scene.n_scenes (generated or frozen)."""
+    return 1 if cfg.scene.import_path else cfg.scene.n_scenes
+
+
+def make_scene(cfg: ExperimentConfig, index: int, bench: Optional[Benchmark] = None) -> SceneGraph:
+    """Scene ``index`` of the experiment: the benchmark's frozen house, the imported house
+    (scene.import_path) or a generated one."""
+    if bench is not None:  # reachability judged for the configured robot, as for an imported house
+        return load_scene_file(bench.path(bench.scenes_frozen[index], "scene.json"), robot_radius=cfg.sim.robot_radius,
+                               resolution=cfg.scene.grid_resolution)
     if cfg.scene.import_path:  # reachability judged for the configured robot, as `scene import-procthor` does
         return load_scene_file(cfg.scene.import_path, robot_radius=cfg.sim.robot_radius,
                                resolution=cfg.scene.grid_resolution)
@@ -43,6 +76,38 @@ def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, Oc
     return [m for m, _ in drawn], record
 
 
+def benchmark_missions(cfg: ExperimentConfig, bench: Benchmark, scene: SceneGraph,
+                       grids: dict[str, OccupancyGrid]) -> tuple[list, dict]:
+    """The benchmark's frozen missions of a scene and its ``feasibility.json`` document: measured as
+    ``scene_missions`` does, the frozen missions re-filled by that measurement (``recheck``), starts
+    that the current robot cannot stand on moved, and a ``benchmark`` section naming what changed
+    since freezing (one warning line per change)."""
+    k = cfg.mission.objects_per_command
+    meas = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids,
+                         need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report)
+    frozen = bench.feasibility(scene.id)
+    missions = bench.missions(scene.id)[:cfg.mission.n_missions]
+    drawn, changes = recheck(missions, frozen, meas.fulfillable(), k)
+    moved = []
+    for j, (mission, fills) in enumerate(drawn):
+        start = standable_start(scene, mission, grids["true"], cfg.sim.robot_radius, cfg.sim.footprint_radius)
+        if start != mission.start:
+            moved.append(mission.id)
+            drawn[j] = (dataclasses.replace(mission, start=start), fills)
+    design = scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
+    record = feasibility_record(meas, drawn, cfg.mission.feasibility, design, cfg.mission.commands_per_mission)
+    record["benchmark"] = benchmark_section(bench, changes, pickups_changed(frozen, record["objects"]), moved,
+                                            slots=sum(f.n_objects for _, fs in drawn for f in fs))
+    for c in changes:
+        log.warning("benchmark %s, scene %s mission %s: command %s measures differently than when frozen: %d of its "
+                    "slots fillable then, %d now (instances no longer fulfillable: %s; newly: %s)", bench.name, scene.id,
+                    c.mission, c.command, c.slots_then, c.slots_now, list(c.lost) or "none", list(c.gained) or "none")
+    for mid in moved:
+        log.warning("benchmark %s, scene %s mission %s: the frozen start is not free for this robot "
+                    "(sim.robot_radius); moved next to the same furniture", bench.name, scene.id, mid)
+    return [m for m, _ in drawn], record
+
+
 UNPICKABLE_MARKER = ("x", "#d62828")  # topdown.png: an object the robot cannot pick up (matplotlib marker, colour)
 
 
@@ -56,16 +121,18 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
     """Write every scene of the experiment into ``out_dir/<scene_id>/``; returns the scene ids."""
     out_dir = ensure_dir(out_dir)
     ids = []
-    n = 1 if cfg.scene.import_path else cfg.scene.n_scenes
+    bench = open_configured_benchmark(cfg)
+    n = n_scenes(cfg)
     for i in progress(range(n), "scenes", total=n):
-        scene = make_scene(cfg, i)
+        scene = make_scene(cfg, i, bench)
         d = ensure_dir(child_path(out_dir, scene.id, what="the scene id ($.id of the scene)"))
         atomic_write_text(d / "scene.json", scene.to_json())
         presumed = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="presumed")
         true = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="true")
         atomic_write_bytes(d / "grid.npz", OccupancyGrid.pair_npz_bytes(presumed, true, cfg.sim.robot_radius))
         atomic_write_text(d / "scene.xml", build_world_spec(scene, robot=False, sim_cfg=cfg.sim).to_xml())
-        missions, record = scene_missions(cfg, scene, {"presumed": presumed, "true": true})
+        grids = {"presumed": presumed, "true": true}
+        missions, record = benchmark_missions(cfg, bench, scene, grids) if bench else scene_missions(cfg, scene, grids)
         save_missions(d / "missions.json", missions)
         write_json(d / "feasibility.json", record)
         render_topdown(scene, d / "topdown.png", grid=presumed, markers=unpickable_markers(scene, record))
