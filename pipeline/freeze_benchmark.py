@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from interllm.errors import UserError
 from interllm.io import confine_writes
 from interllm.stages.freeze import freeze_benchmark
 from interllm.stages.provenance import git_commit
-from pipeline._common import setup_logging
+from pipeline._common import ROOT, setup_logging
 from pipeline._hydra import compose, to_config
 
 
@@ -25,6 +26,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     try:
         cfg = to_config(compose([*args.overrides, "benchmark="]))
+        if not Path(cfg.benchmark_dir).is_absolute():
+            cfg.benchmark_dir = str(ROOT / cfg.benchmark_dir)
         setup_logging(cfg.verbose)
         with confine_writes(cfg.benchmark_dir):
             dest, t = freeze_benchmark(cfg, args.name, git_commit())

@@ -35,6 +35,8 @@ def run(cfg: DictConfig) -> dict:
     cache = Path(typed.llm.cache_dir)
     if not cache.is_absolute():
         typed.llm.cache_dir = str(ROOT / cache)
+    if not Path(typed.benchmark_dir).is_absolute():  # the committed benchmarks, wherever the run is started
+        typed.benchmark_dir = str(ROOT / typed.benchmark_dir)
     hc = HydraConfig.get()
     launcher = str(OmegaConf.select(hc, "launcher._target_", default="") or "")
     if "joblib" in launcher.lower():  # the launcher already runs jobs in parallel

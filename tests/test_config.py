@@ -141,7 +141,12 @@ def test_the_composed_default_is_the_dataclass_default():
     """conf/ (what runs use) and the dataclasses (what ExperimentConfig() in tests and code gives) hold
     the same defaults: a base option file that sets a value other than the dataclass's is named here."""
     composed = asdict(to_config(compose([])))
-    assert _differences(composed, asdict(ExperimentConfig())) == []
+    # but one: conf/ runs on the committed benchmark (data/benchmarks/paper-v2), while library use
+    # (ExperimentConfig(), tests of other houses) draws from its own measurement and needs no file
+    assert composed.pop("benchmark") == "paper-v2"
+    default = asdict(ExperimentConfig())
+    assert default.pop("benchmark") == ""
+    assert _differences(composed, default) == []
 
 
 GROUPS = ("scene", "mission", "llm", "planner", "sim", "metrics")

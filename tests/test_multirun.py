@@ -21,7 +21,7 @@ def test_multirun_m_ablation_writes_one_pipeline_per_job_and_the_report_gathers_
     env = {**os.environ, "INTERLLM_PROGRESS": "0"}
     r = subprocess.run(
         [sys.executable, "-m", "pipeline.run", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
-         "experiment=m_ablation", "scene=tiny",
+         "experiment=m_ablation", "scene=tiny", "benchmark=",
          "mission.n_missions=1", "planner.names=[sayplan]", "planner.M=1,2",
          f"llm.cache_dir={tmp_path / 'cache'}", f"hydra.sweep.dir={sweep}"],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
@@ -62,7 +62,7 @@ def test_submitit_local_runs_two_jobs_against_one_shared_llm_cache(tmp_path):
 
     sweep, cache = tmp_path / "multirun", tmp_path / "cache"
     env = {**os.environ, "INTERLLM_PROGRESS": "0"}
-    common = ["experiment=m_ablation", "scene=tiny", "mission.n_missions=1", "planner.names=[sayplan]",
+    common = ["experiment=m_ablation", "scene=tiny", "benchmark=", "mission.n_missions=1", "planner.names=[sayplan]",
               f"llm.cache_dir={cache}", "jobs=1", "llm.n_threads=1"]
     r = subprocess.run([sys.executable, "-m", "pipeline.run", "-m", "hydra/launcher=submitit_local",
                         "hydra.launcher.timeout_min=20", "hydra.launcher.cpus_per_task=1", *common, "planner.M=1,2",

@@ -33,6 +33,7 @@ def _copy_tree(dst: Path) -> None:
         else:
             shutil.copy2(p, dst / p.name)
     (dst / "data").mkdir()
+    shutil.copytree(ROOT / "data" / "benchmarks", dst / "data" / "benchmarks")  # committed: the frozen missions
 
 
 def _run(args, cwd, env, timeout=1800):
@@ -112,6 +113,15 @@ def test_editing_a_module_leaves_every_stage_that_does_not_run_it_up_to_date(qui
     assert r.returncode == 0, r.stderr
     changed = {stage.rsplit(":", 1)[-1] for stage in json.loads(r.stdout)}
     assert changed == reruns
+
+
+def test_the_runs_name_their_benchmark_in_metrics_json_and_the_report(quick_repo):
+    """experiment=quick runs the first house and mission of the committed benchmark paper-v2; the
+    unchanged simulator measures every slot as frozen."""
+    repo, _, _ = quick_repo
+    b = json.loads((repo / "data" / "metrics" / "metrics.json").read_text())["benchmark"]
+    assert b["name"] == "paper-v2" and b["slots"] == 9 and b["slots_changed"] == 0
+    assert "Benchmark: **paper-v2**" in (repo / "data" / "report" / "report.md").read_text()
 
 
 def test_the_real_model_answered(quick_repo):

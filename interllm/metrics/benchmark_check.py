@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-from interllm.io import read_json
+from interllm.io import InputFileError, read_json
 from interllm.metrics.compute import MetricsInputError
 
 DRAWN = {"name": ""}  # no benchmark: the missions were drawn from the runs' own measurement
@@ -18,11 +18,14 @@ def benchmark_summary(scenes_dir: Path, scene_ids: Iterable[str]) -> dict:
     """{name, frozen_commit, frozen_robot, slots (the frozen missions' slots), slots_changed (Σ |then −
     now| of the slots their matching fills), commands_changed, pickups_changed (objects whose pickup
     became possible or impossible), starts_moved (missions)} over ``scene_ids``; ``DRAWN`` when the
-    scenes came from no benchmark. MetricsInputError when some do and some do not, or two differ."""
+    scenes came from no benchmark (an unreadable file is left out). MetricsInputError when some do and some do not, or two differ."""
     sections = {}
     for sid in sorted(scene_ids):
         p = Path(scenes_dir) / sid / "feasibility.json"
-        sections[sid] = read_json(p).get("benchmark") if p.is_file() else None
+        try:
+            sections[sid] = read_json(p).get("benchmark") if p.is_file() else None
+        except InputFileError:  # the report names the unreadable file; the runs' metrics stand
+            continue
     names = {(s or DRAWN)["name"] for s in sections.values()}
     if len(names) > 1:
         raise MetricsInputError(f"the scenes under {scenes_dir} come from different benchmarks ({sorted(names)}; '' "

@@ -119,9 +119,9 @@ def unpickable_markers(scene: SceneGraph, record: dict) -> list[tuple[float, flo
 
 def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
     """Write every scene of the experiment into ``out_dir/<scene_id>/``; returns the scene ids."""
+    bench = open_configured_benchmark(cfg)  # a config it was not drawn with fails before anything is written
     out_dir = ensure_dir(out_dir)
     ids = []
-    bench = open_configured_benchmark(cfg)
     n = n_scenes(cfg)
     for i in progress(range(n), "scenes", total=n):
         scene = make_scene(cfg, i, bench)
