@@ -23,7 +23,7 @@ LLAMA_WHEELS := .wheels/llama-cpp-python-$(LLAMA_KEY)
 LLAMA_STAMP := $(VENV)/.llama-$(LLAMA_KEY)
 JOBS := $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: mechanism install install-llama repro test test-ci test-all lint bench params clean-cache lock
+.PHONY: mechanism sweeps sweep-report install install-llama repro test test-ci test-all lint bench params clean-cache lock
 
 install: $(VENV)/.installed
 
@@ -112,6 +112,22 @@ mechanism: install
 	    hydra.sweep.dir=multirun/mechanism 'hydra.sweep.subdir=oracle_error_$${llm.oracle_error}'
 	$(PY) -m pipeline.run experiment=mechanism_model hydra.run.dir=multirun/mechanism/embedded
 	$(PY) -m pipeline.collect_runs multirun/mechanism data/mechanism
+
+# The sweeps: each experiment of SWEEPS runs the grid its conf/experiment/<name>.yaml declares
+# (hydra.sweeper.params) into multirun/sweeps/<name>/; the jobs' config and metrics are copied to
+# data/sweeps/<name>/<job>/ (committed), the sweep report is built from that copy into
+# data/report_sweeps/, and every job's metrics.json is compared with its committed version.
+# `make sweeps SWEEPS=oracle_sweep` re-runs one; the others' committed copies stay.
+SWEEPS ?= encoding_comparison oracle_sweep m_ablation temperature_ablation estimate_comparison
+sweeps: install
+	for e in $(SWEEPS); do rm -rf multirun/sweeps/$$e; \
+	    $(PY) -m pipeline.run -m experiment=$$e hydra.sweep.dir=multirun/sweeps/$$e || exit 1; done
+	$(PY) -m pipeline.collect_sweeps multirun/sweeps data/sweeps
+	$(MAKE) sweep-report
+
+sweep-report: install
+	$(PY) -m interllm.cli report --sweeps data/sweeps --out data/report_sweeps
+	$(PY) -m interllm.cli results diff --file data/sweeps/*/*/data/metrics/metrics.json
 
 # Recompose params.yaml from conf/ after editing conf/ by hand (dvc exp run does it itself).
 params: install

@@ -193,7 +193,14 @@ def _cache_prune(args) -> int:
 
 
 def _results_diff(args) -> int:
-    """Compare metrics.json (and the environment it was made in) with a git revision's."""
+    """Compare each metrics.json of ``--file`` (and the environment it was made in) with a git
+    revision's; the exit status is the worst of the files' (0 same or not checked, 1 differ with
+    ``--check``, 2 cannot compare)."""
+    return max(_results_diff_one(args, f) for f in args.file)
+
+
+def _results_diff_one(args, file: str) -> int:
+    """``_results_diff`` of one file."""
     from interllm.metrics.compare import (  # lazy: a command loads only its own code
         MetricsShapeError,
         check_metrics_shape,
@@ -203,7 +210,7 @@ def _results_diff(args) -> int:
     from interllm.numerics import describe_environment_change  # lazy: a command loads only its own code
 
     root = Path(args.repo).resolve()
-    rel = Path(args.file)
+    rel = Path(file)
     path = rel if rel.is_absolute() else root / rel
     ref = committed_file(root, rel.as_posix(), args.reference)
     if ref is None:
@@ -322,7 +329,7 @@ def _main(argv: list[str] | None = None) -> int:
     rp.add_argument("--data", default="data", help="folder with metrics/, scenes/, runs/")
     rp.add_argument("--params", default="params.yaml")
     rp.add_argument("--sweeps", nargs="*", default=["multirun"], help="Hydra multirun folders to gather")
-    rp.add_argument("--out", default="data/report_ablations")
+    rp.add_argument("--out", default="data/report_sweeps")
     ca = sub.add_parser("cache", help="LLM response cache tools").add_subparsers(dest="ccmd", required=True)
     st = ca.add_parser("stats")
     st.add_argument("--dir", default="data/llm_cache")
@@ -333,7 +340,9 @@ def _main(argv: list[str] | None = None) -> int:
     rs = sub.add_parser("results", help="compare results").add_subparsers(dest="rcmd", required=True)
     rd = rs.add_parser("diff", help="metrics.json against a git revision's: what moved, which conclusions changed")
     rd.add_argument("--reference", default="HEAD", help="git revision (default HEAD)")
-    rd.add_argument("--file", default="data/metrics/metrics.json")
+    rd.add_argument("--file", nargs="+", default=["data/metrics/metrics.json"],
+                    help="metrics.json files to compare (default: the default experiment's); e.g. "
+                         "data/sweeps/*/*/data/metrics/metrics.json data/mechanism/*/metrics/metrics.json")
     rd.add_argument("--repo", default=".", help="repository root (default: the current directory)")
     rd.add_argument("--check", action="store_true", help="exit 1 when the results differ")
     lm = sub.add_parser("llm", help="LLM backend tools").add_subparsers(dest="lcmd", required=True)

@@ -1,0 +1,70 @@
+"""Copy what the sweeps' jobs measured into a committed folder the report is built from.
+
+    python -m pipeline.collect_sweeps multirun/sweeps data/sweeps
+
+For every job folder under SRC (``<experiment>/<job>/``, a Hydra multirun) that holds
+``data/metrics/metrics.json``, its config (``.hydra/config.yaml`` and ``overrides.yaml``: what
+``interllm report --sweeps`` reads to place the job on its axis) and the small metrics files the
+sweep sections read (``METRICS``) go to ``DST/<experiment>/<what the job overrides>/`` in the same
+layout, so ``interllm report --sweeps data/sweeps`` and ``interllm results diff --file
+data/sweeps/<experiment>/<job>/data/metrics/metrics.json`` work on the committed copy. An
+experiment's earlier copy is replaced whole (written beside, then renamed); experiments not under
+SRC are left as they are.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import yaml
+
+# what the sweep sections read: metrics.json (planners, comparisons, answers), per_mission.csv
+# (paired differences), per_command.csv (learning curves), semantic_*.csv (Table II per σ)
+METRICS = ("metrics.json", "per_mission.csv", "per_command.csv", "semantic_accuracy.csv", "semantic_inferences.csv")
+HYDRA = ("config.yaml", "overrides.yaml")
+
+
+def job_name(overrides: list[str]) -> str:
+    """A job's folder name: its overrides other than the experiment, ``key_value`` joined by ','."""
+    kept = [o.replace("=", "_", 1) for o in overrides if not o.startswith(("experiment=", "hydra."))]
+    return ",".join(kept) or "default"
+
+
+def collect_experiment(jobs: list[Path], dst: Path) -> list[Path]:
+    """Copy ``jobs`` (folders of one experiment's multirun) into ``dst``, replacing it whole."""
+    tmp = dst.with_name(f".{dst.name}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    out = []
+    for job in jobs:
+        name = job_name(yaml.safe_load((job / ".hydra" / "overrides.yaml").read_text()) or [])
+        (tmp / name / ".hydra").mkdir(parents=True)
+        (tmp / name / "data" / "metrics").mkdir(parents=True)
+        for f in HYDRA:
+            shutil.copy2(job / ".hydra" / f, tmp / name / ".hydra" / f)
+        for f in METRICS:
+            shutil.copy2(job / "data" / "metrics" / f, tmp / name / "data" / "metrics" / f)
+        out.append(dst / name)
+    shutil.rmtree(dst, ignore_errors=True)
+    tmp.rename(dst)
+    return out
+
+
+def collect(src: Path, dst: Path) -> list[Path]:
+    """The job folders written under ``dst`` (none found: SystemExit naming ``src``)."""
+    by_experiment: dict[str, list[Path]] = {}
+    for m in sorted(src.glob("*/*/data/metrics/metrics.json")):
+        job = m.parent.parent.parent
+        by_experiment.setdefault(job.parent.name, []).append(job)
+    if not by_experiment:
+        raise SystemExit(f"collect_sweeps: no job under {src} holds data/metrics/metrics.json; run `make sweeps`")
+    dst.mkdir(parents=True, exist_ok=True)
+    return [p for exp, jobs in sorted(by_experiment.items()) for p in collect_experiment(jobs, dst / exp)]
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3:
+        raise SystemExit(__doc__)
+    for d in collect(Path(sys.argv[1]), Path(sys.argv[2])):
+        print(d)
