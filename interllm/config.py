@@ -83,7 +83,9 @@ class SceneConfig:
     # marks cover the whole house); false: only the instances the mission draw examines (the huge
     # preset: 2,000 pickups would be most of its scenes stage; `interllm scene reach` gives the report)
     reach_report: bool = True
-    import_path: Optional[str] = None  # a user scene in our JSON (a ProcTHOR house: `interllm scene import-procthor` first)
+    # a user scene in our JSON (a ProcTHOR house: `interllm scene import-procthor` first), or a
+    # folder of them (<folder>/<house>/scene.json, sorted): several imported houses form one experiment
+    import_path: Optional[str] = None
 
     def validate(self) -> None:
         _choice(self.name, "scene.name", SCENE_SIZES)

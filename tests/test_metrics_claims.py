@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from interllm.metrics import claims
@@ -40,12 +41,13 @@ def test_self_improvement_is_a_difference_in_differences():
     assert claims.self_improvement(_commands(0.0), "inter_llm", n_boot=500)["sayplan"]["verdict"] == "cannot tell"
 
 
-def _inferences(acc_by_sigma: dict[float, float], n: int = 30) -> list[dict]:
+def _inferences(acc_by_sigma: dict[float, float], n: int = 30, houses: int = 3, missions: int = 5) -> list[dict]:
+    """n judged inferences per σ, spread round-robin over houses × missions, the first acc·n correct."""
     rows = []
     for s, acc in acc_by_sigma.items():
         k = round(acc * n)
-        rows += [{"planner": "inter_llm", "temperature": s, "judged": 1, "predicted": "easy",
-                  "correct": int(j < k)} for j in range(n)]
+        rows += [{"planner": "inter_llm", "scene": f"h{j % houses}", "mission": f"m{j % missions}", "temperature": s,
+                  "judged": 1, "predicted": "easy", "correct": int(j < k)} for j in range(n)]
     return rows
 
 
@@ -55,6 +57,40 @@ def test_the_rise_of_accuracy_with_sigma():
     flat = claims.sigma_rise(_inferences({0.2: 0.5, 0.8: 0.5}), n_boot=300)
     assert flat["slope"] == pytest.approx(0.0) and flat["verdict"] == "cannot tell"
     assert claims.sigma_rise(_inferences({0.8: 0.5}), n_boot=300)["verdict"] == "cannot tell"  # one σ
+
+
+def _house_effect_inferences(rise: float) -> list[dict]:
+    """3 σ values on 4 houses × 3 missions × 10 inferences; house h answers right with probability
+    0.2 + 0.2·h at every σ, plus ``rise``·σ: a strong house effect, the same missions at every σ."""
+    rows = []
+    for s in (0.2, 0.5, 0.8):
+        for h in range(4):
+            for m in range(3):
+                k = round(10 * min(1.0, 0.2 + 0.2 * h + rise * s))
+                rows += [{"planner": "inter_llm", "scene": f"h{h}", "mission": f"m{m}", "temperature": s, "judged": 1,
+                          "predicted": "easy", "correct": int(j < k)} for j in range(10)]
+    return rows
+
+
+def test_the_sigma_slope_resamples_houses_and_missions_the_same_at_every_sigma():
+    """Drawing the same missions at every σ pairs the σ values: a house effect that is the same at every
+    σ cancels from the slope, so the paired interval is narrower than one resampling each σ on its own."""
+    rows = _house_effect_inferences(0.1)
+    v = claims.sigma_rise(rows, n_boot=500)
+    assert v["n_missions"] == 12 and v["slope"] == pytest.approx(np.polyfit([0.2, 0.5, 0.8], [
+        np.mean([r["correct"] for r in rows if r["temperature"] == s]) for s in (0.2, 0.5, 0.8)], 1)[0])
+    rng = np.random.default_rng(0)  # each σ resampled independently, houses then missions (unpaired)
+    unpaired = []
+    for _ in range(500):
+        accs = []
+        for s in (0.2, 0.5, 0.8):
+            hs = rng.integers(0, 4, 4)
+            accs.append(np.mean([r["correct"] for h in hs for r in rows if r["temperature"] == s
+                                 and r["scene"] == f"h{h}"]))
+        unpaired.append(np.polyfit([0.2, 0.5, 0.8], accs, 1)[0])
+    lo, hi = np.quantile(unpaired, [0.025, 0.975])
+    assert v["hi"] - v["lo"] < 0.5 * (hi - lo)
+    assert v["verdict"] == "holds"
 
 
 def test_houses_needed_for_a_10_percent_difference_by_hand():

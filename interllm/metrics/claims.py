@@ -20,8 +20,9 @@ shown beside the claims but are never claimants nor baselines.
   command minus that of the first command; holds when its CI lies below 0 (the judged planner gains
   on the baseline as the mission goes on).
 - ``sigma_rise``: Table II's accuracy rises with σ. The least-squares slope of
-  accuracy-when-answered on σ, with a bootstrap CI resampling the inferences within each σ;
-  holds when the CI lies above 0; needs at least two temperatures.
+  accuracy-when-answered on σ, with a bootstrap CI that resamples houses, then missions within
+  them, the same ones at every σ (the sweep runs every σ on the same missions); holds when the CI
+  lies above 0; needs at least two temperatures.
 - ``houses_needed``: per baseline, houses (at the runs' missions per house) for a paired 10%
   difference at 80% power and α = 0.05 (two-sided), from the between- and within-house spread of
   the per-mission differences (missions in one house are not independent draws).
@@ -38,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from interllm.core.seeding import bootstrap_seed
-from interllm.metrics.stats import MIN_CI_SAMPLES, bootstrap_mean_ci
+from interllm.metrics.stats import MIN_CI_SAMPLES, bootstrap_mean_ci, houses_of, resample_counts
 
 PAPER_IMPROVEMENT = 30.0  # [%] the paper's headline
 Z_ALPHA, Z_POWER = 1.959964, 0.841621  # two-sided 5% level, 80% power
@@ -162,31 +163,46 @@ def self_improvement(per_command: Iterable[Mapping], judge: str, n_boot: int = 2
 
 def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot: int = 2000, ci: float = 0.95,
                seed: int = 0) -> dict:
-    """{slope [accuracy per unit σ], lo, hi, n_sigma, verdict} of accuracy-when-answered on σ."""
-    by: dict[float, list[int]] = {}
+    """{slope [accuracy per unit σ], lo, hi, n_sigma, n_missions, verdict} of accuracy-when-answered on σ.
+
+    inferences: semantic_inferences.csv rows (planner, scene, mission, temperature, judged,
+    predicted, correct) of the runs at every σ. Each σ's accuracy is its correct answers over its
+    answered ones; a bootstrap replicate draws houses, then missions within them
+    (``stats.resample_counts``), and recomputes every σ's accuracy over the missions drawn, so the
+    interval carries what missions share (their house, their commands) and pairs the σ values.
+    """
+    cells: dict[float, dict[tuple[str, str], list[int]]] = {}  # σ -> (scene, mission) -> [correct, answered]
     for r in inferences:
         if str(r.get("planner")) != planner or not int(r.get("judged", 0)) or r.get("predicted") == "unknown":
             continue
         t = _num(r.get("temperature"))
         if math.isfinite(t):
-            by.setdefault(t, []).append(int(r["correct"]))
-    sig = sorted(by)
-    if len(sig) < 2 or any(len(by[s]) < MIN_CI_SAMPLES for s in sig):
+            c = cells.setdefault(t, {}).setdefault((str(r.get("scene", "")), str(r.get("mission", ""))), [0, 0])
+            c[0] += int(r["correct"])
+            c[1] += 1
+    sig = sorted(cells)
+    if len(sig) < 2 or any(sum(c[1] for c in cells[s].values()) < MIN_CI_SAMPLES for s in sig):
         return {"slope": float("nan"), "lo": float("nan"), "hi": float("nan"), "n_sigma": len(sig),
-                "verdict": "cannot tell"}
-    x = np.array(sig)
-
-    def slope(acc: np.ndarray) -> float:
-        return float(np.polyfit(x, acc, 1)[0])
-
-    point = slope(np.array([np.mean(by[s]) for s in sig]))
-    rng = np.random.default_rng(bootstrap_seed(seed, f"sigma_rise:{planner}"))
-    boots = []
-    for _ in range(int(n_boot)):
-        boots.append(slope(np.array([np.mean(rng.choice(by[s], size=len(by[s]))) for s in sig])))
-    lo, hi = np.quantile(boots, [(1 - ci) / 2, 1 - (1 - ci) / 2])
+                "n_missions": 0, "verdict": "cannot tell"}
+    units = sorted(set().union(*(cells[s] for s in sig)))
+    correct = np.array([[cells[s].get(u, [0, 0])[0] for u in units] for s in sig], dtype=np.int64)  # (σ, missions)
+    answered = np.array([[cells[s].get(u, [0, 0])[1] for u in units] for s in sig], dtype=np.int64)
+    x = np.array(sig, dtype=float)
+    point = float(_slopes(x, (correct.sum(axis=1) / answered.sum(axis=1))[None, :])[0])
+    counts = resample_counts(len(units), n_boot, bootstrap_seed(seed, f"sigma_rise:{planner}"), houses_of(units))
+    with np.errstate(invalid="ignore", divide="ignore"):  # a replicate whose missions answered nothing at a σ
+        acc = (counts @ correct.T) / (counts @ answered.T)  # integer products: the same on every CPU
+    boots = _slopes(x, acc)
+    boots = boots[np.isfinite(boots)]
+    lo, hi = (float(v) for v in np.quantile(boots, [(1 - ci) / 2, 1 - (1 - ci) / 2]))
     verdict = "holds" if lo > 0 else "does not hold" if hi < 0 else "cannot tell"
-    return {"slope": point, "lo": float(lo), "hi": float(hi), "n_sigma": len(sig), "verdict": verdict}
+    return {"slope": point, "lo": lo, "hi": hi, "n_sigma": len(sig), "n_missions": len(units), "verdict": verdict}
+
+
+def _slopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least-squares slope of each row of ``y`` (B, len(x)) on ``x``, by elementwise sums (no BLAS)."""
+    xc = x - x.mean()
+    return ((y - y.mean(axis=1, keepdims=True)) * xc).sum(axis=1) / float((xc * xc).sum())
 
 
 def houses_needed(per_mission: Iterable[Mapping], judge: str, effect: float = 0.10,

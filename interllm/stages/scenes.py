@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Optional
 
 from interllm.config import ExperimentConfig
+from interllm.errors import MissingInputError
 from interllm.io import atomic_write_bytes, atomic_write_text, child_path, ensure_dir, write_json
 from interllm.progress import progress
 from interllm.scene.benchmark import (
@@ -25,7 +26,7 @@ from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid, rasterize
 from interllm.scene.missions import draw_missions, save_missions, standable_start
 from interllm.scene.render import render_topdown
-from interllm.scene.validate import load_scene_file
+from interllm.scene.validate import SceneValidationError, load_scene_file
 from interllm.sim.build import build_world_spec
 from interllm.stages.feasibility import feasibility_record, measure_scene
 
@@ -43,19 +44,34 @@ def open_configured_benchmark(cfg: ExperimentConfig) -> Optional[Benchmark]:
     return bench
 
 
+def imported_files(import_path: str) -> list[Path]:
+    """The scene files ``scene.import_path`` names: the file itself, or, for a folder, every
+    ``<folder>/<house>/scene.json`` (sorted by house folder: what ``interllm scene import-procthor
+    house.json --out <folder>/<house>/`` writes), so several imported houses form one experiment."""
+    p = Path(import_path)
+    if not p.is_dir():
+        return [p]  # a missing file is named by load_scene_file
+    files = sorted(f for f in p.glob("*/scene.json") if f.is_file())
+    if not files:
+        raise MissingInputError(f"scene.import_path={import_path} is a folder without <house>/scene.json files: "
+                                f"import each house into a folder of its own (interllm scene import-procthor "
+                                f"house.json --out {p / 'house_1'}/), or name one scene.json")
+    return files
+
+
 def n_scenes(cfg: ExperimentConfig) -> int:
-    """Scenes of the experiment: one imported house, or scene.n_scenes (generated or frozen)."""
-    return 1 if cfg.scene.import_path else cfg.scene.n_scenes
+    """Scenes of the experiment: the imported houses, or scene.n_scenes (generated or frozen)."""
+    return len(imported_files(cfg.scene.import_path)) if cfg.scene.import_path else cfg.scene.n_scenes
 
 
 def make_scene(cfg: ExperimentConfig, index: int, bench: Optional[Benchmark] = None) -> SceneGraph:
-    """Scene ``index`` of the experiment: the benchmark's frozen house, the imported house
+    """Scene ``index`` of the experiment: the benchmark's frozen house, imported house ``index``
     (scene.import_path) or a generated one."""
     if bench is not None:  # reachability judged for the configured robot, as for an imported house
         return load_scene_file(bench.path(bench.scenes_frozen[index], "scene.json"), robot_radius=cfg.sim.robot_radius,
                                resolution=cfg.scene.grid_resolution)
     if cfg.scene.import_path:  # reachability judged for the configured robot, as `scene import-procthor` does
-        return load_scene_file(cfg.scene.import_path, robot_radius=cfg.sim.robot_radius,
+        return load_scene_file(imported_files(cfg.scene.import_path)[index], robot_radius=cfg.sim.robot_radius,
                                resolution=cfg.scene.grid_resolution)
     return generate_scene(cfg.scene, index, robot_radius=cfg.sim.robot_radius,
                           objects_per_command=cfg.mission.objects_per_command,
@@ -123,8 +139,14 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
     out_dir = ensure_dir(out_dir)
     ids = []
     n = n_scenes(cfg)
+    files = imported_files(cfg.scene.import_path) if cfg.scene.import_path and bench is None else []
+    made: dict[str, str] = {}  # scene id -> the file it came from
     for i in progress(range(n), "scenes", total=n):
         scene = make_scene(cfg, i, bench)
+        if scene.id in made:  # imported houses: two files would write one folder
+            raise SceneValidationError(str(files[i]), "$.id", f"{scene.id!r} is also the id of {made[scene.id]}: each "
+                                                              f"house of an experiment needs its own; change one")
+        made[scene.id] = str(files[i]) if files else scene.id
         d = ensure_dir(child_path(out_dir, scene.id, what="the scene id ($.id of the scene)"))
         atomic_write_text(d / "scene.json", scene.to_json())
         presumed = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="presumed")
