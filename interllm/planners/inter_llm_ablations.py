@@ -25,8 +25,6 @@ from interllm.planners.inter_llm import InterLLMPlanner
 from interllm.planning.memory import KnownCosts
 from interllm.scene.graph import Command
 
-NO_KNOWN_COSTS = KnownCosts()  # never written: ablations read it, execution writes ctx.memory
-
 
 @PLANNERS.register("inter_llm_no_learning", label="Inter-LLM − learning", color="tab:olive", order=5,
                    ablates="inter_llm")
@@ -54,7 +52,7 @@ class NoCarryOverPlanner(InterLLMPlanner):
     name = "inter_llm_no_carry_over"
 
     def known_for_proposals(self, ctx: PlannerContext) -> KnownCosts:
-        return NO_KNOWN_COSTS
+        return KnownCosts()  # a fresh, empty one: nothing a caller could write to is shared across missions
 
     def known_for(self, action: Action, state: State, ctx: PlannerContext) -> KnownCosts:
         return ctx.memory.only(action, state)
