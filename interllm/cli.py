@@ -194,8 +194,8 @@ def _cache_prune(args) -> int:
 
 def _results_diff(args) -> int:
     """Compare each metrics.json of ``--file`` (and the environment it was made in) with a git
-    revision's; the exit status is the worst of the files' (0 same or not checked, 1 differ with
-    ``--check``, 2 cannot compare)."""
+    revision's; the exit status is the worst of the files' (0 same, new or not checked, 1 differ
+    with ``--check``, 2 cannot compare: missing or malformed)."""
     return max(_results_diff_one(args, f) for f in args.file)
 
 
@@ -213,10 +213,9 @@ def _results_diff_one(args, file: str) -> int:
     rel = Path(file)
     path = rel if rel.is_absolute() else root / rel
     ref = committed_file(root, rel.as_posix(), args.reference)
-    if ref is None:
-        print(f"results diff: no {rel.as_posix()} at git revision {args.reference} in {root}; nothing to "
-              f"compare with", file=sys.stderr)
-        return 2
+    if ref is None:  # a result made for the first time: nothing to compare, nothing wrong
+        print(f"{rel.as_posix()} is new: no version at git revision {args.reference} in {root} to compare with.")
+        return 0
     if not path.is_file():
         print(f"results diff: {path} is missing: run `make repro` first", file=sys.stderr)
         return 2

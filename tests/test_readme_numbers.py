@@ -16,7 +16,7 @@ Every quoted number is declared beside it in an HTML comment, which the rendered
   template row labelled ``$`` stands for every ``LABEL=KEY`` of ``rows`` (comma-separated), with
   KEY for ``$`` in its paths; ``*`` skips a cell, any other text must be written as it is. SOURCE is a JSON file
   (``data/metrics/*.json``). A table with a Markdown SOURCE (a committed report, e.g.
-  ``data/report_oracle/report.md``) has no template rows: each row is compared, column by column
+  ``data/report_sweeps/report.md``) has no template rows: each row is compared, column by column
   under the same header, with the row of a report table that has all its columns and the same
   value under its first one.
 - A number in the text: ``... 34.6<!--= {planners/inter_llm/llm_calls_per_mission:.1f} -->``: the
@@ -25,7 +25,9 @@ Every quoted number is declared beside it in an HTML comment, which the rendered
   (``<!--= data/metrics/llm_usage.json {...} -->``).
 - A phrase of a report: ``... error 0.29<!--quote SOURCE: an oracle with error 0.29-->``: SOURCE
   says the phrase, and every number written on the line since its previous comment is in it.
-- ``<!--unchecked: why-->`` right before a table whose numbers no committed file holds.
+- ``<!--unchecked: why-->`` right before a table whose numbers no committed file holds. A table
+  whose every number carries its own ``<!--= SOURCE {...} -->`` needs no table marker (rows from
+  several files).
 
 Formats, ``{path:format}`` with the path's keys separated by ``/`` (a string value is written as
 it is): ``d`` (the default) a whole number, ``,d`` with thousands separators, ``.Nf`` N decimals,
@@ -297,12 +299,14 @@ def check(text: str, doc: str) -> list[Mismatch]:
 
 
 def undeclared_tables(text: str) -> list[int]:
-    """Line numbers of the tables with a number for a cell and no table or unchecked marker before them."""
+    """Line numbers of the tables with a number for a cell and no table or unchecked marker before them
+    (a table whose every number carries its own ``<!--= ... -->`` marker is declared cell by cell)."""
     lines = text.split("\n")
     marked = {text.count("\n", 0, m.end()) for m in MARKER.finditer(text) if m[1] in ("table", "unchecked")}
     missing = []
     for header, body in tables(without_comments(text)):
-        if not any(re.fullmatch(NUMBER, c) for r in body for c in r.cells):
+        numbers = [sum(bool(re.fullmatch(NUMBER, c)) for c in r.cells) for r in body]
+        if not any(numbers) or all(lines[r.line - 1].count("<!--=") == n for r, n in zip(body, numbers, strict=True)):
             continue
         prev = header.line - 2  # 0-based index of the line above the header
         while prev >= 0 and not lines[prev].strip():

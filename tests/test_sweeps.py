@@ -110,3 +110,8 @@ def test_results_diff_compares_every_file_it_is_given(tmp_path):
     assert "x/a/data/metrics/metrics.json reproduces the HEAD version byte for byte" in r.stdout
     assert "x/b/data/metrics/metrics.json differs from the HEAD version" in r.stdout
     assert "planners.inter_llm.m_overall" in r.stdout
+    new = files[0].with_name("new.json")  # made for the first time: said, not an error
+    new.write_text(files[0].read_text())
+    r = subprocess.run([sys.executable, "-m", "interllm.cli", "results", "diff", "--repo", str(repo), "--check",
+                        "--file", new.relative_to(repo).as_posix()], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert r.returncode == 0 and "is new: no version at git revision HEAD" in r.stdout, r.stdout + r.stderr

@@ -184,6 +184,8 @@ def capability_figure(sweep: list, model: Mapping, where: Mapping, planners: lis
     ax1.legend(fontsize=8)
     for b in [p for p in planners if p != judge]:
         vals = np.array([r["improvement"].get(b, nan3) for _, r in sweep], dtype=float)
+        if np.isnan(vals[:, 0]).all() and model["improvement"].get(b) is None:
+            continue  # no improvement is computed over it (an anchor): no empty line in the legend
         _curve_and_star(ax2, xs, vals, model["improvement"].get(b), x_model, f"vs {label(b)}", color(b))
     ax2.axhline(0.0, color="black", linewidth=0.8)
     ax2.set_xlabel("oracle error (share of random answers)")
