@@ -23,7 +23,7 @@ LLAMA_WHEELS := .wheels/llama-cpp-python-$(LLAMA_KEY)
 LLAMA_STAMP := $(VENV)/.llama-$(LLAMA_KEY)
 JOBS := $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: mechanism sweeps sweep-report install install-llama repro test test-ci test-all lint bench params clean-cache lock
+.PHONY: results mechanism sweeps sweep-report install install-llama repro test test-ci test-all lint bench params clean-cache lock
 
 install: $(VENV)/.installed
 
@@ -103,8 +103,8 @@ lint: install
 
 # The mechanism experiments: conf/experiment/mechanism.yaml at oracle error 0 and 0.25, and
 # conf/experiment/mechanism_model.yaml (the embedded model on the default houses); each run's
-# metrics and report are copied to data/mechanism/<run>/ (committed; check them with
-# `interllm results diff --file data/mechanism/oracle_error_0/metrics/metrics.json`).
+# metrics and report are copied to data/mechanism/<run>/ (committed) and compared with the
+# committed versions (`interllm results diff`).
 MECHANISM_ERRORS ?= 0,0.25
 mechanism: install
 	rm -rf multirun/mechanism
@@ -112,6 +112,11 @@ mechanism: install
 	    hydra.sweep.dir=multirun/mechanism 'hydra.sweep.subdir=oracle_error_$${llm.oracle_error}'
 	$(PY) -m pipeline.run experiment=mechanism_model hydra.run.dir=multirun/mechanism/embedded
 	$(PY) -m pipeline.collect_runs multirun/mechanism data/mechanism
+	$(PY) -m interllm.cli results diff --file data/mechanism/*/metrics/metrics.json
+
+# Every committed result re-made by one command, each compared with its committed version: the
+# default experiment, the sweeps and the mechanism runs (about 65 min on 2 cores, committed cache).
+results: repro sweeps mechanism
 
 # The sweeps: each experiment of SWEEPS runs the grid its conf/experiment/<name>.yaml declares
 # (hydra.sweeper.params) into multirun/sweeps/<name>/; the jobs' config and metrics are copied to
@@ -122,7 +127,7 @@ SWEEPS ?= encoding_comparison oracle_sweep m_ablation temperature_ablation estim
 sweeps: install
 	for e in $(SWEEPS); do rm -rf multirun/sweeps/$$e; \
 	    $(PY) -m pipeline.run -m experiment=$$e hydra.sweep.dir=multirun/sweeps/$$e || exit 1; done
-	$(PY) -m pipeline.collect_sweeps multirun/sweeps data/sweeps
+	$(PY) -m pipeline.collect_sweeps multirun/sweeps data/sweeps $(SWEEPS)
 	$(MAKE) sweep-report
 
 sweep-report: install

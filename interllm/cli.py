@@ -212,13 +212,14 @@ def _results_diff_one(args, file: str) -> int:
     root = Path(args.repo).resolve()
     rel = Path(file)
     path = rel if rel.is_absolute() else root / rel
+    if not path.is_file():  # first: a mistyped name or a glob that matched nothing is not "new"
+        print(f"results diff: {path} is missing: run `make repro` (or `make sweeps`) first, or check the "
+              f"--file name", file=sys.stderr)
+        return 2
     ref = committed_file(root, rel.as_posix(), args.reference)
     if ref is None:  # a result made for the first time: nothing to compare, nothing wrong
         print(f"{rel.as_posix()} is new: no version at git revision {args.reference} in {root} to compare with.")
         return 0
-    if not path.is_file():
-        print(f"results diff: {path} is missing: run `make repro` first", file=sys.stderr)
-        return 2
     try:
         reference = check_metrics_shape(json.loads(ref), f"{rel.as_posix()} at git revision {args.reference}")
         cmp = compare_metrics(reference, check_metrics_shape(json.loads(path.read_text(encoding="utf-8")), str(path)))

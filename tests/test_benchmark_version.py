@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from interllm.config import ConfigError
@@ -101,7 +102,8 @@ def test_metrics_json_and_the_report_header_carry_the_version_and_the_changes(fr
     assert same["slots_changed"] == 0 and short["slots_changed"] > 0
     assert "all 9 slots measure as when frozen" in benchmark_sentence(same)
     assert f"{short['slots_changed']} of 9 slots" in benchmark_sentence(short)
-    assert "no versioned benchmark" in benchmark_sentence(benchmark_summary(Path("/nonexistent"), ["x"]))
+    unknown = benchmark_summary(Path("/nonexistent"), ["x"])
+    assert unknown == {"name": "", "unknown": ["x"]} and "is not known" in benchmark_sentence(unknown)
 
 
 def test_scenes_from_different_benchmarks_are_refused_by_the_aggregate(frozen, same_simulator, tmp_path):
@@ -187,6 +189,37 @@ def test_recheck_of_an_unchanged_measurement_reports_nothing():
     record = _frozen_record([_fill("c1", 2, ["a", "b"]), _fill("c2", 2, ["c", "d"])])
     now = Fulfillable(objects={"c1": ("a", "b"), "c2": ("c", "d")}, capacity={"c1": 2, "c2": 2})
     assert recheck([_mission(2)], record, now, k=2)[1] == []
+
+
+def test_a_start_where_a_wider_footprint_collides_is_moved_to_one_where_it_does_not(frozen):
+    """A frozen start on a free cell whose footprint would touch furniture (as the draw never picks when
+    a clear cell exists) moves to the clear cell the draw would pick for this footprint."""
+    from interllm.scene.grid import (
+        approach_cells,
+        clear_of_obstacles,
+        free_components,
+        largest_component,
+        rasterize,
+    )
+    from interllm.scene.reachability import REACH_MARGIN
+
+    _, dest, _ = frozen
+    sid = next(p.name for p in dest.iterdir() if p.is_dir())
+    scene = load_scene_file(dest / sid / "scene.json", robot_radius=0.15)
+    grid = rasterize(scene, 0.05, 0.15, doors="true")
+    labels, _ = free_components(grid)
+    m = json.loads((dest / sid / "missions.json").read_text())["missions"][0]
+    footprint = 0.3
+    clear = clear_of_obstacles(grid.free, footprint - 0.15, 0.05)
+    cells = approach_cells(grid, scene.furniture[m["start_furniture"]].footprint, 0.15 + REACH_MARGIN)
+    cells = [tuple(c) for c in cells if labels[c[0], c[1]] == largest_component(labels)]
+    tight = next(c for c in cells if not clear[c])  # free, but the wider footprint touches something
+    assert any(clear[c] for c in cells)
+    x, y = (float(v) for v in grid.cell_to_world(np.array(tight)))
+    mission = Mission.from_dict({**m, "start": [x, y, 0.0]})
+    moved = standable_start(scene, mission, grid, 0.15, footprint)
+    assert moved != mission.start and clear[tuple(grid.world_to_cell(moved[:2]))]
+    assert standable_start(scene, mission, grid, 0.15, None) == mission.start  # no footprint given: it stays
 
 
 def test_a_start_the_robot_cannot_stand_on_is_moved_next_to_the_same_furniture(frozen):

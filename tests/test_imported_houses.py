@@ -13,7 +13,8 @@ import pytest
 from interllm.errors import MissingInputError
 from interllm.scene.generator import generate_scene
 from interllm.scene.validate import SceneValidationError
-from interllm.stages.scenes import imported_files, n_scenes, run_scenes
+from interllm.stages.freeze import freeze_benchmark
+from interllm.stages.scenes import imported_files, run_scenes, scene_count
 from pipeline._hydra import compose, to_config
 
 
@@ -38,7 +39,7 @@ def _cfg(import_path: Path):
 def test_a_folder_of_imported_houses_is_one_experiment_of_several_scenes(tmp_path):
     ids = _houses(tmp_path / "houses", 2)
     cfg = _cfg(tmp_path / "houses")
-    assert n_scenes(cfg) == 2 and [p.parent.name for p in imported_files(cfg.scene.import_path)] == ["house_0",
+    assert scene_count(cfg) == 2 and [p.parent.name for p in imported_files(cfg.scene.import_path)] == ["house_0",
                                                                                                      "house_1"]
     out = tmp_path / "scenes"
     assert run_scenes(cfg, out) == ids
@@ -46,17 +47,36 @@ def test_a_folder_of_imported_houses_is_one_experiment_of_several_scenes(tmp_pat
         missions = json.loads((out / sid / "missions.json").read_text())["missions"]
         assert len(missions) == 1 and missions[0]["scene_id"] == sid
     # one file is still one scene
-    assert n_scenes(_cfg(tmp_path / "houses" / "house_1" / "scene.json")) == 1
+    assert scene_count(_cfg(tmp_path / "houses" / "house_1" / "scene.json")) == 1
 
 
-def test_two_houses_with_one_scene_id_are_refused_naming_both_files(tmp_path):
+def test_two_houses_with_one_scene_id_are_refused_naming_both_files_before_any_is_written(tmp_path):
     _houses(tmp_path / "houses", 1)
     shutil.copytree(tmp_path / "houses" / "house_0", tmp_path / "houses" / "house_copy")
     with pytest.raises(SceneValidationError, match=r"house_copy/scene.json: \$\.id: .*also the id of .*house_0"):
         run_scenes(_cfg(tmp_path / "houses"), tmp_path / "scenes")
+    assert not list((tmp_path / "scenes").glob("*/scene.json"))
+
+
+def test_a_benchmark_of_imported_houses_runs_from_its_frozen_copy_wherever_the_folder_is(tmp_path):
+    """Frozen from a folder of two imported houses, the benchmark runs both from its own copy: with the
+    folder moved (another path on another machine) or gone."""
+    ids = _houses(tmp_path / "houses", 2)
+    bench = tmp_path / "benchmarks"
+    freeze_benchmark(to_config(compose(["experiment=quick", f"benchmark_dir={bench}",
+                                        f"scene.import_path={tmp_path / 'houses'}"])), "imp", "0" * 40)
+    shutil.move(tmp_path / "houses", tmp_path / "moved")
+    for where in (tmp_path / "moved", tmp_path / "gone"):
+        cfg = to_config(compose(["experiment=quick", f"benchmark_dir={bench}", "benchmark=imp",
+                                 f"scene.import_path={where}"]))
+        assert run_scenes(cfg, tmp_path / where.name / "scenes") == ids
 
 
 def test_a_folder_without_houses_names_the_layout_it_expects(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(MissingInputError, match=r"folder without <house>/scene.json files.*--out"):
-        n_scenes(_cfg(tmp_path / "empty"))
+        scene_count(_cfg(tmp_path / "empty"))
+    _houses(tmp_path / "one", 1)
+    shutil.move(tmp_path / "one" / "house_0" / "scene.json", tmp_path / "one" / "scene.json")
+    with pytest.raises(MissingInputError, match=r"name it: scene.import_path=.*one/scene.json"):
+        scene_count(_cfg(tmp_path / "one"))

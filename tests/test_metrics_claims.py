@@ -57,6 +57,8 @@ def test_the_rise_of_accuracy_with_sigma():
     flat = claims.sigma_rise(_inferences({0.2: 0.5, 0.8: 0.5}), n_boot=300)
     assert flat["slope"] == pytest.approx(0.0) and flat["verdict"] == "cannot tell"
     assert claims.sigma_rise(_inferences({0.8: 0.5}), n_boot=300)["verdict"] == "cannot tell"  # one σ
+    one_mission = claims.sigma_rise(_inferences({0.2: 0.2, 0.8: 0.8}, houses=1, missions=1), n_boot=300)
+    assert one_mission["verdict"] == "cannot tell" and one_mission["n_missions"] == 1  # nothing to resample
 
 
 def _house_effect_inferences(rise: float) -> list[dict]:

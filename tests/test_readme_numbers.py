@@ -298,6 +298,14 @@ def check(text: str, doc: str) -> list[Mismatch]:
     return out
 
 
+def _cells_marked(raw: str, row: Row) -> bool:
+    """True when every number of ``row`` (its cells without comments) carries its own ``<!--= -->``
+    marker in the same cell of the raw line ``raw``."""
+    raw_cells = raw.strip().strip("|").split("|")  # markers hold no '|'
+    return len(raw_cells) == len(row.cells) and all(
+        "<!--=" in r for r, c in zip(raw_cells, row.cells, strict=True) if re.fullmatch(NUMBER, c))
+
+
 def undeclared_tables(text: str) -> list[int]:
     """Line numbers of the tables with a number for a cell and no table or unchecked marker before them
     (a table whose every number carries its own ``<!--= ... -->`` marker is declared cell by cell)."""
@@ -305,8 +313,8 @@ def undeclared_tables(text: str) -> list[int]:
     marked = {text.count("\n", 0, m.end()) for m in MARKER.finditer(text) if m[1] in ("table", "unchecked")}
     missing = []
     for header, body in tables(without_comments(text)):
-        numbers = [sum(bool(re.fullmatch(NUMBER, c)) for c in r.cells) for r in body]
-        if not any(numbers) or all(lines[r.line - 1].count("<!--=") == n for r, n in zip(body, numbers, strict=True)):
+        if not any(re.fullmatch(NUMBER, c) for r in body for c in r.cells) or all(_cells_marked(lines[r.line - 1], r)
+                                                                                 for r in body):
             continue
         prev = header.line - 2  # 0-based index of the line above the header
         while prev >= 0 and not lines[prev].strip():

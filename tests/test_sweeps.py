@@ -20,6 +20,7 @@ from pipeline.collect_sweeps import METRICS, collect, job_name
 
 ROOT = Path(__file__).resolve().parent.parent
 CONF = ROOT / "conf"
+COMMITTED_JOB = ROOT / "data" / "sweeps" / "m_ablation" / "planner.M_3" / "data" / "metrics"
 SWEEP_EXPERIMENTS = sorted(p.stem for p in (CONF / "experiment").glob("*.yaml")
                            if (yaml.safe_load(p.read_text()) or {}).get("sweep"))
 
@@ -51,8 +52,8 @@ def _fake_job(root: Path, experiment: str, num: int, overrides: list[str], confi
     (job / ".hydra" / "overrides.yaml").write_text(yaml.safe_dump([f"experiment={experiment}", *overrides]))
     (job / ".hydra" / "config.yaml").write_text(yaml.safe_dump(config))
     (job / "data" / "metrics").mkdir(parents=True)
-    for f in METRICS:  # the committed default run's files: the real shapes
-        shutil.copy2(ROOT / "data" / "metrics" / f, job / "data" / "metrics" / f)
+    for f in METRICS:  # a committed job's files (in git, so on a fresh clone too): the real shapes
+        shutil.copy2(COMMITTED_JOB / f, job / "data" / "metrics" / f)
     (job / "data" / "metrics" / "per_object.csv").write_text("not collected\n")
     return job
 
@@ -81,10 +82,29 @@ def test_collected_jobs_keep_what_the_report_finds_them_by(tmp_path):
     assert sorted(p.name for p in (dst / "m_ablation").iterdir()) == ["planner.M_1", "planner.M_5"]
 
 
-def test_a_job_is_named_by_what_it_overrides():
+def test_a_job_is_named_by_what_it_overrides_in_one_folder_name():
     assert job_name(["experiment=encoding_comparison", "llm.oracle_costs=numeric", "planner.cost_encoding=paper"]) \
         == "llm.oracle_costs_numeric,planner.cost_encoding_paper"
     assert job_name(["experiment=quick"]) == "default"
+    hostile = job_name(["llm.model=a/../../../etc/x", "scene.import_path=/tmp/h"])
+    assert "/" not in hostile and hostile == "llm.model_a_.._.._.._etc_x,scene.import_path__tmp_h"
+    assert not job_name(["..=x"]).startswith(".")
+
+
+def test_only_the_sweeps_asked_for_are_collected_and_clashes_are_named(tmp_path):
+    src, dst = tmp_path / "multirun", tmp_path / "sweeps"
+    _fake_job(src, "oracle_sweep", 0, ["llm.oracle_error=0.1"], {"sweep": "oracle", "llm": {"oracle_error": 0.1}})
+    _fake_job(src, "m_ablation", 0, ["planner.M=1"], {"sweep": "m", "planner": {"M": 1}})
+    collect(src, dst, ["m_ablation"])
+    assert [p.name for p in dst.iterdir()] == ["m_ablation"]  # the old oracle run stayed where it was
+    _fake_job(src, "m_ablation", 1, ["planner.M=1"], {"sweep": "m", "planner": {"M": 1}})
+    with pytest.raises(SystemExit, match=r"jobs .*m_ablation/0 and .*m_ablation/1 override the same keys"):
+        collect(src, dst, ["m_ablation"])
+    (src / "m_ablation" / "1" / "data" / "metrics" / "per_mission.csv").unlink()
+    shutil.rmtree(src / "m_ablation" / "0")
+    with pytest.raises(SystemExit, match=r"m_ablation/1 lacks \['per_mission.csv'\]"):
+        collect(src, dst, ["m_ablation"])
+    assert sorted(p.name for p in (dst / "m_ablation").iterdir()) == ["planner.M_1"]  # the copy survived
 
 
 def test_nothing_to_collect_is_named(tmp_path):
@@ -115,3 +135,7 @@ def test_results_diff_compares_every_file_it_is_given(tmp_path):
     r = subprocess.run([sys.executable, "-m", "interllm.cli", "results", "diff", "--repo", str(repo), "--check",
                         "--file", new.relative_to(repo).as_posix()], capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert r.returncode == 0 and "is new: no version at git revision HEAD" in r.stdout, r.stdout + r.stderr
+    r = subprocess.run([sys.executable, "-m", "interllm.cli", "results", "diff", "--repo", str(repo), "--file",
+                        "data/sweeps/*/*/data/metrics/metrics.json"], capture_output=True, text=True, timeout=120,
+                       cwd=ROOT)  # a glob that matched nothing reaches it unexpanded: missing, not new
+    assert r.returncode == 2 and "is missing" in r.stderr, r.stdout + r.stderr

@@ -18,20 +18,23 @@ def benchmark_summary(scenes_dir: Path, scene_ids: Iterable[str]) -> dict:
     """{name, frozen_commit, frozen_robot, slots (the frozen missions' slots), slots_changed (Σ |then −
     now| of the slots their matching fills), commands_changed, pickups_changed (objects whose pickup
     became possible or impossible), starts_moved (missions)} over ``scene_ids``; ``DRAWN`` when the
-    scenes came from no benchmark (an unreadable file is left out). MetricsInputError when some do and some do not, or two differ."""
-    sections = {}
+    scenes came from no benchmark; ``unknown`` lists the scenes whose feasibility.json is missing or
+    unreadable (left out of the totals). MetricsInputError when some do and some do not, or two differ."""
+    sections, unknown = {}, []
     for sid in sorted(scene_ids):
         p = Path(scenes_dir) / sid / "feasibility.json"
         try:
-            sections[sid] = read_json(p).get("benchmark") if p.is_file() else None
+            sections[sid] = read_json(p).get("benchmark") if p.is_file() else unknown.append(sid)
         except InputFileError:  # the report names the unreadable file; the runs' metrics stand
-            continue
+            unknown.append(sid)
+    sections = {sid: s for sid, s in sections.items() if sid not in unknown}
     names = {(s or DRAWN)["name"] for s in sections.values()}
     if len(names) > 1:
         raise MetricsInputError(f"the scenes under {scenes_dir} come from different benchmarks ({sorted(names)}; '' "
                                 f"= drawn): re-run the scenes stage with one benchmark for all")
-    if names <= {""}:
-        return dict(DRAWN)
+    extra = {"unknown": unknown} if unknown else {}  # scenes whose feasibility.json is missing or unreadable
+    if not sections or names == {""}:
+        return {**DRAWN, **extra}
     first = next(iter(sections.values()))
     rows = list(sections.values())
     return {"name": first["name"], "frozen_commit": first["frozen_commit"], "frozen_robot": first["frozen_robot"],
@@ -39,18 +42,22 @@ def benchmark_summary(scenes_dir: Path, scene_ids: Iterable[str]) -> dict:
             "slots_changed": sum(int(s["slots_changed"]) for s in rows),
             "commands_changed": sum(len(s["changes"]) for s in rows),
             "pickups_changed": sum(len(s["pickups_changed"]) for s in rows),
-            "starts_moved": sum(len(s["starts_moved"]) for s in rows)}
+            "starts_moved": sum(len(s["starts_moved"]) for s in rows), **extra}
 
 
 def benchmark_sentence(b: dict) -> str:
     """The report header's line about the benchmark (metrics.json's ``benchmark``)."""
+    unknown = (f" Unknown for scene(s) {', '.join(b['unknown'])}: their feasibility.json is missing or unreadable."
+               if b and b.get("unknown") else "")
+    if b and not b.get("name") and b.get("unknown") and not b.get("slots"):
+        return f"Houses and missions: where they come from (a benchmark or a draw) is not known.{unknown}"
     if not b or not b.get("name"):
         return ("Houses and missions: drawn from this run's own simulator measurement (no versioned benchmark, "
-                "`benchmark: ''`): a run with another simulator or robot may ask other commands.")
+                "`benchmark: ''`): a run with another simulator or robot may ask other commands." + unknown)
     changed = (f"**{b['slots_changed']} of {b['slots']} slots** measure differently now "
                f"({b['commands_changed']} command(s) changed, {b['pickups_changed']} object(s) whose pickup "
                f"changed, {b['starts_moved']} start(s) moved; each listed in the scenes' feasibility.json)"
                if b["commands_changed"] or b["pickups_changed"] or b["starts_moved"]
                else f"all {b['slots']} slots measure as when frozen")
     return (f"Benchmark: **{b['name']}** (houses and missions frozen at commit {str(b['frozen_commit'])[:12]} with "
-            f"robot {b['frozen_robot']}, re-measured by this run's simulator): {changed}.")
+            f"robot {b['frozen_robot']}, re-measured by this run's simulator): {changed}.{unknown}")

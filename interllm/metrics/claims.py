@@ -181,10 +181,12 @@ def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot
             c[0] += int(r["correct"])
             c[1] += 1
     sig = sorted(cells)
-    if len(sig) < 2 or any(sum(c[1] for c in cells[s].values()) < MIN_CI_SAMPLES for s in sig):
-        return {"slope": float("nan"), "lo": float("nan"), "hi": float("nan"), "n_sigma": len(sig),
-                "n_missions": 0, "verdict": "cannot tell"}
-    units = sorted(set().union(*(cells[s] for s in sig)))
+    units = sorted(set().union(*(cells[s] for s in sig))) if sig else []
+    nothing = {"slope": float("nan"), "lo": float("nan"), "hi": float("nan"), "n_sigma": len(sig),
+               "n_missions": len(units), "verdict": "cannot tell"}
+    if len(sig) < 2 or len(units) < MIN_CI_SAMPLES or \
+            any(sum(c[1] for c in cells[s].values()) < MIN_CI_SAMPLES for s in sig):
+        return nothing  # too few missions to resample: an interval would mean nothing
     correct = np.array([[cells[s].get(u, [0, 0])[0] for u in units] for s in sig], dtype=np.int64)  # (σ, missions)
     answered = np.array([[cells[s].get(u, [0, 0])[1] for u in units] for s in sig], dtype=np.int64)
     x = np.array(sig, dtype=float)
@@ -194,6 +196,8 @@ def sigma_rise(inferences: Sequence[Mapping], planner: str = "inter_llm", n_boot
         acc = (counts @ correct.T) / (counts @ answered.T)  # integer products: the same on every CPU
     boots = _slopes(x, acc)
     boots = boots[np.isfinite(boots)]
+    if boots.size == 0:
+        return {**nothing, "slope": point}
     lo, hi = (float(v) for v in np.quantile(boots, [(1 - ci) / 2, 1 - (1 - ci) / 2]))
     verdict = "holds" if lo > 0 else "does not hold" if hi < 0 else "cannot tell"
     return {"slope": point, "lo": lo, "hi": hi, "n_sigma": len(sig), "n_missions": len(units), "verdict": verdict}

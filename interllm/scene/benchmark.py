@@ -40,6 +40,7 @@ FREE_KEYS = frozenset({"scene.reach_report", "mission.limit_missions"})
 # counts a run may lower: house i and mission j do not depend on how many are drawn (house i is
 # generated with scene.seed + i, mission j with its own seed), so the first ones are a subset
 SUBSET_KEYS = ("scene.n_scenes", "mission.n_missions")
+IMPORTED = "(imported houses)"  # drawn_with's scene.import_path when the houses were imported
 
 
 class BenchmarkError(UserError, ValueError):
@@ -57,11 +58,14 @@ def check_benchmark_name(name: str, key: str = "benchmark") -> str:
 
 def drawn_with(seed: int, scene: object, mission: object) -> dict:
     """The config a benchmark is drawn with: the experiment's replicate ``seed`` and the scene and
-    mission groups (dataclasses), without ``FREE_KEYS`` and ``SUBSET_KEYS``."""
+    mission groups (dataclasses), without ``FREE_KEYS`` and ``SUBSET_KEYS``; ``scene.import_path``
+    only says whether the houses were imported (``IMPORTED``): the frozen houses are what counts,
+    and their path differs from machine to machine."""
     out: dict = {"seed": int(seed)}
     for group, obj in (("scene", scene), ("mission", mission)):
         out[group] = {k: v for k, v in dataclasses.asdict(obj).items()  # type: ignore[call-overload]
                       if f"{group}.{k}" not in FREE_KEYS and f"{group}.{k}" not in SUBSET_KEYS}
+    out["scene"]["import_path"] = IMPORTED if out["scene"].get("import_path") else None
     return out
 
 
@@ -130,6 +134,9 @@ class Benchmark:
 
     def path(self, scene_id: str, file: str) -> Path:
         """A frozen file, after checking its SHA-256 against the manifest."""
+        if scene_id not in self.manifest.scenes:
+            raise BenchmarkError(f"scene {scene_id!r} is not in benchmark {self.name!r} ({self.root / MANIFEST} "
+                                 f"lists {self.scenes_frozen})")
         p = self.root / check_name(scene_id, f"the scene id in {self.root / MANIFEST}") / file
         if not p.is_file() or sha256_of(p) != self.manifest.scenes[scene_id][file]:
             raise BenchmarkError(f"{p} is {'missing' if not p.is_file() else 'not the file frozen'} in benchmark "
@@ -201,7 +208,8 @@ class SlotChange:
                 "slots_now": self.slots_now, "lost": list(self.lost), "gained": list(self.gained)}
 
 
-def recheck(missions: Sequence[Mission], frozen_record: Mapping, fulfillable: Fulfillable, k: int
+def recheck(missions: Sequence[Mission], frozen_record: Mapping, fulfillable: Fulfillable, k: int,
+            source: str = "the frozen feasibility.json"
             ) -> tuple[list[tuple[Mission, tuple[CommandFill, ...]]], list[SlotChange]]:
     """The frozen ``missions`` filled by the current measurement ``fulfillable``, and what changed.
 
@@ -218,8 +226,8 @@ def recheck(missions: Sequence[Mission], frozen_record: Mapping, fulfillable: Fu
     for mission in missions:
         frozen = then.get(mission.id)
         if frozen is None:
-            raise BenchmarkError(f"mission {mission.id} of scene {mission.scene_id} is not in the frozen "
-                                 f"feasibility.json: the benchmark is inconsistent; freeze a new version")
+            raise BenchmarkError(f"mission {mission.id} of scene {mission.scene_id} is not in {source}: the "
+                                 f"benchmark is inconsistent; freeze a new version")
         asked = [c for c in frozen if int(c["n_objects"]) > 0]
         demands = [(tuple(fulfillable.objects.get(c["id"], ())),
                     min(int(c["n_objects"]), int(fulfillable.capacity.get(c["id"], 0)))) for c in asked]

@@ -159,21 +159,27 @@ def start_pose(scene: SceneGraph, furniture_id: str, grid, robot_radius: float,
 
 
 def standable_start(scene: SceneGraph, mission: Mission, grid, robot_radius: float,
-                    footprint_radius: float | None = None) -> tuple[float, float, float]:
-    """``mission.start`` if its cell is free on ``grid`` (the true grid of the configured robot) and in
-    the largest free region; else a new ``start_pose`` next to the same furniture (a frozen mission
-    run with a larger robot). MissionError when the furniture has no free start cell."""
-    labels, _ = free_components(grid)
-    rc = grid.world_to_cell(np.asarray(mission.start[:2], dtype=float))
-    if grid.is_free(rc) and labels[int(rc[0]), int(rc[1])] == largest_component(labels):
-        return mission.start
-    extra = 0.0 if footprint_radius is None else float(footprint_radius) - robot_radius
-    pose = start_pose(scene, mission.start_furniture, grid, robot_radius, labels,
-                      clear_of_obstacles(grid.free, extra, grid.resolution))
+                    footprint_radius: float | None = None, labels: np.ndarray | None = None,
+                    standable: np.ndarray | None = None) -> tuple[float, float, float]:
+    """``mission.start`` if the configured robot can stand there as the draw requires: its cell free
+    on ``grid`` (the robot's true grid) and in the largest free region, and its true footprint
+    (``footprint_radius`` [m]) clear of obstacles unless no start cell next to the start furniture
+    is. Else the pose ``start_pose`` gives next to the same furniture (a frozen mission run with
+    another robot). labels / standable: ``free_components(grid)`` and the footprint-clear mask, if
+    already computed for the scene. MissionError when the furniture has no free start cell."""
+    if labels is None:
+        labels, _ = free_components(grid)
+    if standable is None:
+        extra = 0.0 if footprint_radius is None else float(footprint_radius) - robot_radius
+        standable = clear_of_obstacles(grid.free, extra, grid.resolution)
+    pose = start_pose(scene, mission.start_furniture, grid, robot_radius, labels, standable)
     if pose is None:
         raise MissionError(f"scene {scene.id!r} mission {mission.id}: no free start cell next to "
                            f"{mission.start_furniture!r} for this robot (sim.robot_radius={robot_radius} m)")
-    return pose
+    r, c = (int(v) for v in grid.world_to_cell(np.asarray(mission.start[:2], dtype=float)))
+    best = grid.world_to_cell(np.asarray(pose[:2], dtype=float))
+    free = grid.is_free((r, c)) and labels[r, c] == largest_component(labels)
+    return mission.start if free and (standable[r, c] or not standable[int(best[0]), int(best[1])]) else pose
 
 
 def _more_objects_advice(scene: SceneGraph) -> str:

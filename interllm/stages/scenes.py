@@ -9,9 +9,9 @@ import logging
 from pathlib import Path
 from typing import Optional
 
-from interllm.config import ExperimentConfig
+from interllm.config import MAX_SCENES, ExperimentConfig
 from interllm.errors import MissingInputError
-from interllm.io import atomic_write_bytes, atomic_write_text, child_path, ensure_dir, write_json
+from interllm.io import atomic_write_bytes, atomic_write_text, child_path, ensure_dir, read_json, write_json
 from interllm.progress import progress
 from interllm.scene.benchmark import (
     Benchmark,
@@ -23,7 +23,7 @@ from interllm.scene.benchmark import (
 )
 from interllm.scene.generator import generate_scene
 from interllm.scene.graph import SceneGraph
-from interllm.scene.grid import OccupancyGrid, rasterize
+from interllm.scene.grid import OccupancyGrid, clear_of_obstacles, free_components, rasterize
 from interllm.scene.missions import draw_missions, save_missions, standable_start
 from interllm.scene.render import render_topdown
 from interllm.scene.validate import SceneValidationError, load_scene_file
@@ -40,7 +40,8 @@ def open_configured_benchmark(cfg: ExperimentConfig) -> Optional[Benchmark]:
     if not cfg.benchmark:
         return None
     bench = open_benchmark(cfg.benchmark_dir, cfg.benchmark)
-    bench.check_config(drawn_with(cfg.seed, cfg.scene, cfg.mission), n_scenes(cfg), cfg.mission.n_missions)
+    bench.check_config(drawn_with(cfg.seed, cfg.scene, cfg.mission), scene_count(cfg, bench),
+                       cfg.mission.n_missions)
     return bench
 
 
@@ -53,15 +54,35 @@ def imported_files(import_path: str) -> list[Path]:
         return [p]  # a missing file is named by load_scene_file
     files = sorted(f for f in p.glob("*/scene.json") if f.is_file())
     if not files:
-        raise MissingInputError(f"scene.import_path={import_path} is a folder without <house>/scene.json files: "
-                                f"import each house into a folder of its own (interllm scene import-procthor "
-                                f"house.json --out {p / 'house_1'}/), or name one scene.json")
+        hint = f"name it: scene.import_path={p / 'scene.json'}" if (p / "scene.json").is_file() else (
+            f"import each house into a folder of its own (interllm scene import-procthor house.json --out "
+            f"{p / 'house_1'}/), or name one scene.json")
+        raise MissingInputError(f"scene.import_path={import_path} is a folder without <house>/scene.json files: {hint}")
+    if len(files) > MAX_SCENES:
+        raise MissingInputError(f"scene.import_path={import_path} holds {len(files)} houses, more than the {MAX_SCENES} "
+                                f"an experiment accepts (as scene.n_scenes); split them over experiments")
     return files
 
 
-def n_scenes(cfg: ExperimentConfig) -> int:
-    """Scenes of the experiment: the imported houses, or scene.n_scenes (generated or frozen)."""
-    return len(imported_files(cfg.scene.import_path)) if cfg.scene.import_path else cfg.scene.n_scenes
+def scene_count(cfg: ExperimentConfig, bench: Optional[Benchmark] = None) -> int:
+    """Scenes of the experiment: scene.n_scenes generated houses (or the first of a benchmark's), or
+    every imported house (of the import folder, or all those a benchmark froze from one)."""
+    if not cfg.scene.import_path:
+        return cfg.scene.n_scenes
+    return len(bench.scenes_frozen) if bench is not None else len(imported_files(cfg.scene.import_path))
+
+
+def check_distinct_ids(files: list[Path]) -> None:
+    """SceneValidationError naming both files when two imported houses have one ``$.id`` (checked
+    before any is written: two houses would write one folder)."""
+    seen: dict[str, Path] = {}
+    for f in files:
+        sid = read_json(f).get("id") if f.is_file() else None
+        if isinstance(sid, str) and sid in seen:
+            raise SceneValidationError(str(f), "$.id", f"{sid!r} is also the id of {seen[sid]}: each house of an "
+                                                       f"experiment needs its own; change one")
+        if isinstance(sid, str):
+            seen[sid] = f
 
 
 def make_scene(cfg: ExperimentConfig, index: int, bench: Optional[Benchmark] = None) -> SceneGraph:
@@ -103,10 +124,14 @@ def benchmark_missions(cfg: ExperimentConfig, bench: Benchmark, scene: SceneGrap
                          need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report)
     frozen = bench.feasibility(scene.id)
     missions = bench.missions(scene.id)[:cfg.mission.n_missions]
-    drawn, changes = recheck(missions, frozen, meas.fulfillable(), k)
+    drawn, changes = recheck(missions, frozen, meas.fulfillable(), k, str(bench.root / scene.id / "feasibility.json"))
     moved = []
+    labels, _ = free_components(grids["true"])
+    standable = clear_of_obstacles(grids["true"].free, cfg.sim.footprint_radius - cfg.sim.robot_radius,
+                                   grids["true"].resolution)
     for j, (mission, fills) in enumerate(drawn):
-        start = standable_start(scene, mission, grids["true"], cfg.sim.robot_radius, cfg.sim.footprint_radius)
+        start = standable_start(scene, mission, grids["true"], cfg.sim.robot_radius, cfg.sim.footprint_radius,
+                                labels, standable)
         if start != mission.start:
             moved.append(mission.id)
             drawn[j] = (dataclasses.replace(mission, start=start), fills)
@@ -138,15 +163,11 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
     bench = open_configured_benchmark(cfg)  # a config it was not drawn with fails before anything is written
     out_dir = ensure_dir(out_dir)
     ids = []
-    n = n_scenes(cfg)
-    files = imported_files(cfg.scene.import_path) if cfg.scene.import_path and bench is None else []
-    made: dict[str, str] = {}  # scene id -> the file it came from
+    n = scene_count(cfg, bench)
+    if cfg.scene.import_path and bench is None:
+        check_distinct_ids(imported_files(cfg.scene.import_path))
     for i in progress(range(n), "scenes", total=n):
         scene = make_scene(cfg, i, bench)
-        if scene.id in made:  # imported houses: two files would write one folder
-            raise SceneValidationError(str(files[i]), "$.id", f"{scene.id!r} is also the id of {made[scene.id]}: each "
-                                                              f"house of an experiment needs its own; change one")
-        made[scene.id] = str(files[i]) if files else scene.id
         d = ensure_dir(child_path(out_dir, scene.id, what="the scene id ($.id of the scene)"))
         atomic_write_text(d / "scene.json", scene.to_json())
         presumed = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="presumed")
