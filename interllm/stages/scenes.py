@@ -99,17 +99,28 @@ def make_scene(cfg: ExperimentConfig, index: int, bench: Optional[Benchmark] = N
                           footprint_radius=cfg.sim.footprint_radius)
 
 
+def measure(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid]):
+    """The simulator's measurement of a scene's commands (``stages.feasibility.measure_scene``), as
+    much as a mission of the config can use."""
+    k = cfg.mission.objects_per_command
+    return measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids,
+                         need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report)
+
+
+def object_design(scene: SceneGraph) -> str:
+    """feasibility.json's ``object_design``: the generator's, or "imported"."""
+    return scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
+
+
 def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid]) -> tuple[list, dict]:
     """The missions of a scene and its ``feasibility.json`` document: the simulator measures which
     instances each command can get (``stages.feasibility``), the draw uses that with
     mission.feasibility=measured (and records it either way)."""
-    k = cfg.mission.objects_per_command
-    meas = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids,
-                         need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report)
+    meas = measure(cfg, scene, grids)
     drawn = draw_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
                           footprint_radius=cfg.sim.footprint_radius, fulfillable=meas.fulfillable())
-    design = scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
-    record = feasibility_record(meas, drawn, cfg.mission.feasibility, design, cfg.mission.commands_per_mission)
+    record = feasibility_record(meas, drawn, cfg.mission.feasibility, object_design(scene),
+                                cfg.mission.commands_per_mission)
     return [m for m, _ in drawn], record
 
 
@@ -117,26 +128,16 @@ def benchmark_missions(cfg: ExperimentConfig, bench: Benchmark, scene: SceneGrap
                        grids: dict[str, OccupancyGrid]) -> tuple[list, dict]:
     """The benchmark's frozen missions of a scene and its ``feasibility.json`` document: measured as
     ``scene_missions`` does, the frozen missions re-filled by that measurement (``recheck``), starts
-    that the current robot cannot stand on moved, and a ``benchmark`` section naming what changed
-    since freezing (one warning line per change)."""
-    k = cfg.mission.objects_per_command
-    meas = measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids,
-                         need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report)
+    that the current robot cannot stand on moved (``moved_starts``), and a ``benchmark`` section
+    naming what changed since freezing (one warning line per change)."""
+    meas = measure(cfg, scene, grids)
     frozen = bench.feasibility(scene.id)
     missions = bench.missions(scene.id)[:cfg.mission.n_missions]
-    drawn, changes = recheck(missions, frozen, meas.fulfillable(), k, str(bench.root / scene.id / "feasibility.json"))
-    moved = []
-    labels, _ = free_components(grids["true"])
-    standable = clear_of_obstacles(grids["true"].free, cfg.sim.footprint_radius - cfg.sim.robot_radius,
-                                   grids["true"].resolution)
-    for j, (mission, fills) in enumerate(drawn):
-        start = standable_start(scene, mission, grids["true"], cfg.sim.robot_radius, cfg.sim.footprint_radius,
-                                labels, standable)
-        if start != mission.start:
-            moved.append(mission.id)
-            drawn[j] = (dataclasses.replace(mission, start=start), fills)
-    design = scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
-    record = feasibility_record(meas, drawn, cfg.mission.feasibility, design, cfg.mission.commands_per_mission)
+    drawn, changes = recheck(missions, frozen, meas.fulfillable(), cfg.mission.objects_per_command,
+                             str(bench.root / scene.id / "feasibility.json"))
+    moved = moved_starts(cfg, scene, drawn, grids["true"])
+    record = feasibility_record(meas, drawn, cfg.mission.feasibility, object_design(scene),
+                                cfg.mission.commands_per_mission)
     record["benchmark"] = benchmark_section(bench, changes, pickups_changed(frozen, record["objects"]), moved,
                                             slots=sum(f.n_objects for _, fs in drawn for f in fs))
     for c in changes:
@@ -144,9 +145,24 @@ def benchmark_missions(cfg: ExperimentConfig, bench: Benchmark, scene: SceneGrap
                     "slots fillable then, %d now (instances no longer fulfillable: %s; newly: %s)", bench.name, scene.id,
                     c.mission, c.command, c.slots_then, c.slots_now, list(c.lost) or "none", list(c.gained) or "none")
     for mid in moved:
-        log.warning("benchmark %s, scene %s mission %s: the frozen start is not free for this robot "
-                    "(sim.robot_radius); moved next to the same furniture", bench.name, scene.id, mid)
+        log.warning("benchmark %s, scene %s mission %s: this robot cannot stand at the frozen start (sim.robot_radius, "
+                    "sim.footprint_radius); moved where the draw would put it, by the same furniture", bench.name,
+                    scene.id, mid)
     return [m for m, _ in drawn], record
+
+
+def moved_starts(cfg: ExperimentConfig, scene: SceneGraph, drawn: list, grid: OccupancyGrid) -> list[str]:
+    """Replace in ``drawn`` ((mission, fills) pairs) each start the configured robot cannot stand on
+    (``missions.standable_start``); returns the ids of the missions whose start moved."""
+    labels, _ = free_components(grid)
+    standable = clear_of_obstacles(grid.free, cfg.sim.footprint_radius - cfg.sim.robot_radius, grid.resolution)
+    moved = []
+    for j, (mission, fills) in enumerate(drawn):
+        start = standable_start(scene, mission, grid, cfg.sim.robot_radius, cfg.sim.footprint_radius, labels, standable)
+        if start != mission.start:
+            moved.append(mission.id)
+            drawn[j] = (dataclasses.replace(mission, start=start), fills)
+    return moved
 
 
 UNPICKABLE_MARKER = ("x", "#d62828")  # topdown.png: an object the robot cannot pick up (matplotlib marker, colour)
