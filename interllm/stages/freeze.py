@@ -51,5 +51,9 @@ def freeze_benchmark(cfg: ExperimentConfig, name: str, commit: str) -> tuple[Pat
         manifest = Manifest(name, commit, cfg.sim.robot, drawn_with(cfg.seed, cfg.scene, cfg.mission),
                             cfg.mission.n_missions, hashes)
         write_json(staging / MANIFEST, manifest.to_dict())
-        os.rename(staging, dest)
+        try:
+            os.rename(staging, dest)
+        except OSError as e:  # another freeze of the same name finished first
+            raise BenchmarkError(f"{dest} could not be created ({e.strerror}): another freeze of {name!r} may have "
+                                 f"finished first; a version is never rewritten, freeze under a new name") from None
     return dest, totals
