@@ -69,10 +69,13 @@ def test_objects_inside_the_fridge_are_marked_and_left_out_of_missions(houses):
 def test_the_default_robot_reaches_most_open_surfaces_and_the_v1_robot_a_quarter(houses):
     picked, total, by_cat = _open_surface_share(houses, SimConfig())
     assert SimConfig().robot == "manipulathor" and total == 78
-    assert picked >= 46  # 59%: the floor measured when this test was written
-    for cat in ("coffee_table", "side_table", "sink", "dresser"):
-        assert by_cat[cat][0] >= by_cat[cat][1] - 1, (cat, by_cat[cat])
-    assert by_cat["dining_table"][0] <= 5  # ringed by chairs: most of the table is out of reach
+    assert picked >= 0.70 * total  # the bar; 59/78 (76%) measured when the arm root moved
+    for cat in ("kitchen_counter", "side_table", "sink", "dresser"):
+        assert by_cat[cat][0] >= by_cat[cat][1] - 2, (cat, by_cat[cat])
+    # ringed by chairs; and a coffee table's top (0.45 m) is at the arm root's lowest height (0.451 m),
+    # so the root's 0.32 m bone to the shoulder sweeps it: out of reach from some sides
+    assert by_cat["dining_table"][0] < by_cat["dining_table"][1]
+    assert by_cat["coffee_table"][0] < by_cat["coffee_table"][1]
     v1, _, _ = _open_surface_share(houses, SimConfig(**compose_config(["sim/robot=generic"])["sim"]))
     assert v1 <= 25 and picked >= v1 + 20
 

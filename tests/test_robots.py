@@ -3,7 +3,9 @@ and places an object in MuJoCo (in the manner of mujoco_menagerie's model tests)
 
 Figures checked (interllm/sim/robots.py cites them): Stretch 3 (Hello Robot's hardware guide):
 footprint 34 x 33 cm, lift travel 1.1 m, arm travel 0.52 m. ManipulaTHOR (AI2-THOR's source): body
-radius 0.2 m, arm root 0.451 to 1.801 m above the floor, 0.6325 m shoulder-to-wrist reach.
+radius 0.2 m, arm root 0.329 m right of the body axis and 0.451 to 1.801 m above the floor, shoulder
+0.3165 m in front of the root, upper arm 0.3165 m and forearm 0.3170 m (the prefab's joints; about
+AI2-THOR's 0.6325 m extendedArmLength from the shoulder).
 """
 
 from __future__ import annotations
@@ -97,13 +99,18 @@ def test_manipulathor_matches_ai2thors_figures():
     assert desc.footprint_radius == 0.2 and _cfg("manipulathor").footprint_radius == 0.2
     lift = desc.joints[0]
     assert lift.kind == "slide" and lift.range == pytest.approx((0.450998873, 1.8009994))
+    shoulder = (0.31654257, -0.329)  # [m] forward, left of the body axis
+    arm = 0.31653777 + 0.3169529  # [m] shoulder to wrist, straight
+    assert arm == pytest.approx(0.6325, abs=0.0015)  # AI2-THOR's extendedArmLength
     for height in lift.range:
         straight = grip_in_base(desc, (height, 0.0, 0.0, 0.0, 0.0, 0.0))  # arm and wrist straight out
-        assert straight == pytest.approx((0.6325 + 0.07, 0.0, height))
+        assert straight == pytest.approx((shoulder[0] + arm + 0.07, shoulder[1], height))
         down = grip_in_base(desc, (height, 0.0, 0.0, 0.0, math.pi / 2, 0.0))  # the hand turned down
-        assert down == pytest.approx((0.6325, 0.0, height - 0.07))
+        assert down == pytest.approx((shoulder[0] + arm, shoulder[1], height - 0.07))
     reach = robot_parts("manipulathor").reach
-    assert (reach.radius, reach.radius_min, reach.tilts) == (pytest.approx(0.6325), 0.0, True)
+    assert reach.radius == pytest.approx(math.hypot(shoulder[0] + arm, shoulder[1]))
+    assert (reach.lateral, reach.radius_min, reach.tilts) == (pytest.approx(-0.329), 0.0, True)
+    assert SimConfig().pose_reach > reach.radius + SimConfig().pose_margin  # the cap leaves the reach whole
 
 
 def test_the_urdf_frames_are_read_as_urdf_defines_them():

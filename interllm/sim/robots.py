@@ -15,21 +15,26 @@ chain is read from that file at build time (never downloaded at run time).
   (docs.hello-robot.com, Stretch 3 hardware guide): footprint 34 x 33 cm, lift travel 1.1 m,
   arm travel 52 cm.
 - ``manipulathor``: AI2-THOR's arm agent (``agentMode="arm"``), the paper's robot, from the
-  simulator's source: body capsule radius 0.2 m, height 1.8 m (``PhysicsRemoteFPSAgentController``
-  ``InitializeBody``); the arm's root slides on the body from 0.451 to 1.801 m above the floor
-  (``MoveArmBase``; allenact ``manipulathor_plugin/manipulathor_constants.py`` ``ARM_MIN_HEIGHT`` /
-  ``ARM_MAX_HEIGHT``); the wrist reaches up to 0.6325 m from the shoulder, in front of it
-  (``IK_Robot_Arm_Controller.cs`` ``extendedArmLength``); the hand sphere sits 0.01 m + its radius
-  beyond the wrist (``SetHandSphereRadius``, radius 0.04-0.5 m). Not published, so chosen here and
-  said so: the shoulder over the body's centre, upper arm = forearm = 0.6325 / 2 m (AI2-THOR
-  solves a two-bone IK whose bone lengths its prefab sets), a hand-sphere radius of 0.06 m, and a
-  pan, shoulder, elbow, wrist-pitch and wrist-roll hinge for the arm (its actions move the wrist
-  in position and rotation and swivel the elbow).
+  simulator's source (allenai/ai2thor): body capsule radius 0.2 m, height 1.8 m
+  (``PhysicsRemoteFPSAgentController`` ``InitializeBody``); the arm rig's root stands 0.329 m to
+  the right of the body axis (``FPSController.prefab``, commit 0026af29, the
+  ``robot_arm_rig_gripper`` instance's ``m_LocalPosition.x``; no code moves it but ``MoveArmBase``,
+  which moves it vertically) and slides from 0.451 to 1.801 m above the floor (``MoveArmBase``;
+  allenact ``manipulathor_plugin/manipulathor_constants.py`` ``ARM_MIN_HEIGHT`` / ``ARM_MAX_HEIGHT``);
+  the shoulder is 0.3165 m in front of the root, the upper arm 0.3165 m and the forearm 0.3170 m
+  long (``robot_arm_rig_gripper.prefab``, commit 28692f18: ``robot_arm_2_jnt`` .. ``robot_arm_4_jnt``
+  local z; ``FK_IK_Solver`` reads its bone lengths from these joints and keeps root and shoulder
+  fixed); the hand sphere sits 0.01 m + its radius beyond the wrist (``SetHandSphereRadius``,
+  radius 0.04-0.5 m). Not published, so chosen here and said so: a hand-sphere radius of 0.06 m, and
+  a pan, shoulder, elbow, wrist-pitch and wrist-roll hinge at the shoulder and wrist for AI2-THOR's
+  two-bone IK (the wrist is moved in position and rotation, the elbow swivels).
 - ``generic``: the v1 robot of this project (``robot.py``): not a real robot; kept so the results
   made with it can be reproduced.
 
 Departures, for every robot: the base moves holonomically on a planar joint about the footprint's
-centre (Stretch drives differentially about its wheel axle); the simulation is kinematic.
+centre (Stretch drives differentially about its wheel axle); the simulation is kinematic; navigation
+checks the base's footprint only (ManipulaTHOR's arm root, 0.13 m outside its body capsule, and
+Stretch's arm are not checked while driving).
 """
 
 from __future__ import annotations
@@ -126,7 +131,10 @@ def stretch() -> RobotDescription:
 
 MANIPULATHOR_BODY_RADIUS = 0.2  # [m] capsule collider radius
 MANIPULATHOR_ARM_HEIGHT = (0.450998873, 1.8009994)  # [m] arm root above the floor (MoveArmBase 0..1)
-MANIPULATHOR_REACH = 0.6325  # [m] shoulder to wrist, fully extended
+MANIPULATHOR_ARM_ROOT = (0.0, -0.329, 0.0)  # [m] arm root in the base frame (x forward, y left)
+MANIPULATHOR_ROOT_TO_SHOULDER = 0.31654257  # [m] shoulder in front of the arm root
+MANIPULATHOR_UPPER_ARM = 0.31653777  # [m] shoulder to elbow
+MANIPULATHOR_FOREARM = 0.3169529  # [m] elbow to wrist
 MANIPULATHOR_HAND = 0.01 + 0.06  # [m] wrist to the hand sphere's centre (radius 0.06 m, chosen)
 
 
@@ -136,21 +144,23 @@ def _box(link: str, length: float, half_width: float) -> LinkBox:
 
 def manipulathor() -> RobotDescription:
     """AI2-THOR's arm agent (module doc)."""
-    bone = MANIPULATHOR_REACH / 2
     ident = (1.0, 0.0, 0.0, 0.0)
     y, z, x = (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0)
+    shoulder = (MANIPULATHOR_ROOT_TO_SHOULDER, 0.0, 0.0)
     chain = (ChainJoint("arm_base", "arm_base", "slide", (0.0, 0.0, 0.0), ident, z, MANIPULATHOR_ARM_HEIGHT),
-             ChainJoint("arm_pan", "shoulder", "hinge", (0.0, 0.0, 0.0), ident, z, (-2.9, 2.9)),
+             ChainJoint("arm_pan", "shoulder", "hinge", shoulder, ident, z, (-2.9, 2.9)),
              ChainJoint("arm_shoulder", "upper_arm", "hinge", (0.0, 0.0, 0.0), ident, y, (-1.9, 1.9)),
-             ChainJoint("arm_elbow", "forearm", "hinge", (bone, 0.0, 0.0), ident, y, (-2.6, 2.6)),
-             ChainJoint("arm_wrist_pitch", "wrist", "hinge", (bone, 0.0, 0.0), ident, y, (-2.1, 2.1)),
+             ChainJoint("arm_elbow", "forearm", "hinge", (MANIPULATHOR_UPPER_ARM, 0.0, 0.0), ident, y, (-2.6, 2.6)),
+             ChainJoint("arm_wrist_pitch", "wrist", "hinge", (MANIPULATHOR_FOREARM, 0.0, 0.0), ident, y, (-2.1, 2.1)),
              ChainJoint("arm_wrist_roll", "hand", "hinge", (0.0, 0.0, 0.0), ident, x, (-math.pi, math.pi)),
              ChainJoint("grasp_center", "grasp_center", "fixed", (MANIPULATHOR_HAND, 0.0, 0.0), ident))
-    boxes = {"upper_arm": _box("upper_arm", bone, 0.03), "forearm": _box("forearm", bone, 0.025),
+    boxes = {"arm_base": _box("arm_base", MANIPULATHOR_ROOT_TO_SHOULDER, 0.03),
+             "upper_arm": _box("upper_arm", MANIPULATHOR_UPPER_ARM, 0.03),
+             "forearm": _box("forearm", MANIPULATHOR_FOREARM, 0.025),
              "hand": _box("hand", MANIPULATHOR_HAND - 0.02, 0.02)}
     return RobotDescription(
         name="manipulathor", source="AI2-THOR arm agent (ai2thor ArmAgentController; allenact manipulathor_plugin)",
-        footprint_radius=MANIPULATHOR_BODY_RADIUS, base_height=0.3, chain=chain, mount=(0.0, 0.0, 0.0),
+        footprint_radius=MANIPULATHOR_BODY_RADIUS, base_height=0.3, chain=chain, mount=MANIPULATHOR_ARM_ROOT,
         boxes=boxes, tuck=(0.9, 0.0, -1.5, 2.6, 1.0, 0.0),
         reach_low=(MANIPULATHOR_ARM_HEIGHT[0], 0.0, 0.0, 0.0, math.pi / 2, 0.0),
         reach_high=(MANIPULATHOR_ARM_HEIGHT[1], 0.0, 0.0, 0.0, math.pi / 2, 0.0), tilts=True, camera_height=1.576)
