@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from helpers.planners import FakeScoreClient, SymbolicWorld, tiny_mission, tiny_scene
-from helpers.scenes import kitchen
+from helpers.scenes import GENERIC, kitchen
 
 from interllm.config import ExperimentConfig, SimConfig
 from interllm.core.actions import Action
@@ -23,8 +23,8 @@ def _snapshot(w: World) -> tuple:
     return objs, w.state, w.clock, w.robot_pose, w.physics.data.qpos.copy().tolist(), len(w.log)
 
 
-def _kitchen_at_counter() -> World:
-    w = World(kitchen(), SimConfig(pose_margin=0.05))  # poses on both sides of the reach edge: graded
+def _kitchen_at_counter(**robot) -> World:
+    w = World(kitchen(), SimConfig(pose_margin=0.05, **robot))  # poses on both sides of the reach edge: graded
     w.reset(Mission("m", "kitchen", (1.0, 1.0, 0.0), "counter_1", ()))
     assert w.execute(Action("navigate", "counter_1", room="k")).success  # ends at the counter's anchor
     assert w.robot_pose[:2] == pytest.approx(w.anchor("counter_1"))
@@ -42,15 +42,19 @@ def test_the_measurement_is_what_the_robot_then_measures_and_changes_nothing():
     assert (done.success_rate, done.cost) == (truth.success_rate, truth.cost)
     assert [t.base_pose for t in done.trials] == [t.base_pose for t in truth.trials]
     # a place of the held mug, measured from the anchor, then done from the pose the pickup left
-    # the robot at: the same protocol, so the same class
+    # the robot at: the same protocol, so the same success rate; the N_l cells drawn from the reach
+    # disc depend on where the robot starts, so the time differs by the drives (5.05 s against
+    # 4.95 s here: either side of the easy/medium boundary, the classes may differ)
     place = Action("place", "counter_1", obj="mug_front")
     measured = w.measure_manipulation(place)
     assert measured is not None and measured.trials
-    assert encode_cost(w.execute(place).cost) == encode_cost(measured.cost)
+    done_place = w.execute(place)
+    assert done_place.success_rate == measured.success_rate
+    assert done_place.cost == pytest.approx(measured.cost, abs=0.5)
 
 
 def test_the_back_of_the_deep_counter_measures_hard_and_impossible_actions_measure_nothing():
-    w = _kitchen_at_counter()
+    w = _kitchen_at_counter(**GENERIC)  # ManipulaTHOR's arm, 1.07 m from its body axis, reaches the back
     back = w.measure_manipulation(Action("pickup", "counter_1", obj="mug_back"))
     assert back.success_rate == 0.0 and encode_cost(back.cost) == "hard"
     assert w.measure_manipulation(Action("pickup", "counter_1", obj="no_such_mug")) is None

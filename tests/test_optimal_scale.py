@@ -99,9 +99,11 @@ def test_optimal_measures_a_bounded_number_of_actions_per_command_on_a_110_room_
     options = planner.options(command, ctx, nav, MAX_OBJECTS)
     measured = len(world._measured) - before
     assert options, "the search found no delivery"
-    # measured 272 (pickups and places) to keep 12 instances of 399; every pickable instance's
-    # pickup and places on its 8 nearest targets take 2,023 (benchmarks/bench_optimal_huge.py)
-    assert measured <= 3 * MAX_OBJECTS * (1 + MAX_TARGETS), (measured, instances)
+    # measured 411 (pickups and places) to keep 12 instances of 399 (272 before ManipulaTHOR's arm
+    # moved to where AI2-THOR puts it: more instances are pickable, and their costs lie farther
+    # above the floor); every pickable instance's pickup and places on its 8 nearest targets took
+    # 2,023 with the earlier arm (benchmarks/bench_optimal_huge.py)
+    assert measured <= 4 * MAX_OBJECTS * (1 + MAX_TARGETS), (measured, instances)
     # the bounds hold for what MuJoCo measures: no action that can succeed costs less than the floor
     costs = [r.cost for r in world._measured.values() if r is not None and r.success_rate > 0]
     assert costs and min(costs) >= manipulation_floor(cfg.sim), min(costs)
