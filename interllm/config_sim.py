@@ -47,7 +47,7 @@ class SimConfig:
     n_l: int = 5  # sampled base poses per manipulation (paper's N_l)
     pose_protocol: str = "reach"  # how the N_l base poses are drawn: one of POSE_PROTOCOLS (sim/base_poses.py)
     # [m] reach protocol: base centres at most this far (horizontal) from the target; a cap above the
-    # default robot's reach (ManipulaTHOR: 1.07 m from the body axis to the hand, its shoulder
+    # default robot's reach (ManipulaTHOR: 1.01 m from the body axis to the grasp centre, its shoulder
     # 0.46 m off it); conf/sim/robot/{generic,stretch}.yaml keep 0.8, above their reach too
     pose_reach: float = 1.2
     pose_margin: float = 0.025  # [m] reach protocol: candidates this far beyond the arm's reach at the target height

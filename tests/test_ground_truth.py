@@ -54,7 +54,7 @@ def test_the_measurement_is_what_the_robot_then_measures_and_changes_nothing():
 
 
 def test_the_back_of_the_deep_counter_measures_hard_and_impossible_actions_measure_nothing():
-    w = _kitchen_at_counter(**GENERIC)  # ManipulaTHOR's arm, 1.07 m from its body axis, reaches the back
+    w = _kitchen_at_counter(**GENERIC)  # ManipulaTHOR's arm, 1.01 m from its body axis, reaches the back
     back = w.measure_manipulation(Action("pickup", "counter_1", obj="mug_back"))
     assert back.success_rate == 0.0 and encode_cost(back.cost) == "hard"
     assert w.measure_manipulation(Action("pickup", "counter_1", obj="no_such_mug")) is None

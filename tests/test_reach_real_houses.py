@@ -69,7 +69,7 @@ def test_objects_inside_the_fridge_are_marked_and_left_out_of_missions(houses):
 def test_the_default_robot_reaches_most_open_surfaces_and_the_v1_robot_a_quarter(houses):
     picked, total, by_cat = _open_surface_share(houses, SimConfig())
     assert SimConfig().robot == "manipulathor" and total == 78
-    assert picked >= 0.70 * total  # the bar; 59/78 (76%) measured when the arm root moved
+    assert picked >= 0.70 * total  # the bar; 64/78 (82%) measured when the arm root moved
     for cat in ("kitchen_counter", "side_table", "sink", "dresser"):
         assert by_cat[cat][0] >= by_cat[cat][1] - 2, (cat, by_cat[cat])
     # ringed by chairs; and a coffee table's top (0.45 m) is at the arm root's lowest height (0.451 m),

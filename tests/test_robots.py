@@ -109,7 +109,8 @@ def test_manipulathor_matches_ai2thors_figures():
         assert down == pytest.approx((shoulder[0] + arm, shoulder[1], height - 0.07))
     reach = robot_parts("manipulathor").reach
     assert reach.radius == pytest.approx(math.hypot(shoulder[0] + arm, shoulder[1]))
-    assert (reach.lateral, reach.radius_min, reach.tilts) == (pytest.approx(-0.329), 0.0, True)
+    # nearest: the grasp centre under the shoulder (AI2-THOR refuses targets behind the shoulder)
+    assert (reach.lateral, reach.radius_min, reach.tilts) == (pytest.approx(-0.329), pytest.approx(math.hypot(*shoulder)), True)
     assert SimConfig().pose_reach > reach.radius + SimConfig().pose_margin  # the cap leaves the reach whole
 
 
@@ -184,3 +185,18 @@ def test_scene_reach_command_takes_hydra_overrides(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "interllm.cli", "scene", "reach", str(scene_file), "sim/robot=nao"],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "sim/robot" in bad.stderr and "stretch" in bad.stderr
+
+
+@pytest.mark.parametrize("name", REAL)
+def test_the_ik_keeps_every_arm_link_off_the_furniture_even_the_first(name):
+    """In the local IK model the base is welded to the world, so mink would take the arm's first
+    moving link (ManipulaTHOR's arm root, Stretch's lift carriage) for the world's child and drop
+    its pairs with the furniture; ``ArmCollisionLimit`` keeps every (arm geom, obstacle) pair."""
+    from interllm.sim.arm_ik import build_local_ik
+
+    ik = build_local_ik(house(), "table_1", _cfg(name))
+    avoid = ik.obstacles()
+    pairs = {tuple(sorted(p)) for p in ik.limits(avoid)[1].geom_id_pairs}
+    table = ik.model.geom("furniture/table_1").id
+    assert {tuple(sorted((g, table))) for g in ik.arm_geoms} <= pairs
+    assert len(pairs) == len(ik.arm_geoms) * len(set(avoid))

@@ -27,7 +27,25 @@ from interllm.sim.robot import GRIP_SITE, RobotParts, robot_parts
 ROT_TOL = 0.1  # [rad] orientation tolerance of IK convergence
 IK_NEIGHBOURHOOD = 1.6  # [m] reach protocol: what the arm could touch (pose_reach 0.8 + arm reach 0.76, rounded)
 STALL_ITERS = 25  # stop an IK solve after this many iterations without progress
+# [m or rad] the largest joint move of one IK step: the collision limits are linearised where the
+# step starts, so a longer step can carry a link through a table top it did not yet see
+MAX_IK_STEP = 0.05
 ARM_SAMPLE_STEP = 0.1  # [rad] joint-space spacing of the clearance samples along an arm motion
+
+
+class ArmCollisionLimit(mink.CollisionAvoidanceLimit):
+    """mink's collision avoidance over exactly the given (arm geom, obstacle geom) pairs.
+
+    mink drops a pair whose bodies it takes for parent and child by their welds. In the local IK
+    model the base is welded to the world, so the arm's first moving link (ManipulaTHOR's arm root,
+    Stretch's lift carriage) counts as the world's child and would lose every pair with furniture,
+    walls and objects, which are welded to the world too: the IK would drive it into a table that
+    the final contact check then finds. No arm geom is an obstacle's parent or child, so every
+    given pair is kept (sorted: a fixed constraint order)."""
+
+    def _construct_geom_id_pairs(self, geom_pairs):
+        return sorted({(min(a, b), max(a, b)) for arm, obstacles in geom_pairs for a in arm for b in obstacles
+                       if a != b})
 
 
 @dataclass
@@ -54,9 +72,9 @@ class LocalIK:
         if key not in self._limits:
             limits = [mink.ConfigurationLimit(self.model)]
             if key:
-                limits.append(mink.CollisionAvoidanceLimit(self.model, [(self.arm_geoms, list(key))],
-                                                           minimum_distance_from_collisions=0.005,
-                                                           collision_detection_distance=0.08))
+                limits.append(ArmCollisionLimit(self.model, [(self.arm_geoms, list(key))],
+                                                minimum_distance_from_collisions=0.005,
+                                                collision_detection_distance=0.2))
             self._limits[key] = limits
         return self._limits[key]
 
@@ -167,7 +185,8 @@ def solve_ik(ik: LocalIK, q0: np.ndarray, target_pos: np.ndarray, target_rot: np
         except mink.NoSolutionFound:
             reason = "ik_infeasible"
             break
-        conf.integrate_inplace(v, cfg.ik_dt)
+        step = float(np.max(np.abs(v))) * cfg.ik_dt
+        conf.integrate_inplace(v * min(1.0, MAX_IK_STEP / step) if step > 0 else v, cfg.ik_dt)
     return _Solve(conf.q.copy(), pe, re, False, reason)
 
 

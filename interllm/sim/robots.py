@@ -63,7 +63,8 @@ class RobotDescription:
     tuck: the carry pose, one value per moving joint of ``chain`` (chain order).
     reach_low / reach_high: joint vectors of the lowest, most retracted top-down gripper and of the
         highest, most extended one (``reach`` reads the robot's reach from them by kinematics);
-        reach_near: the closest one (a telescoping arm cannot reach nearer).
+        reach_near: the closest one, horizontally (a telescoping arm cannot reach nearer; an arm
+        mounted off the body axis, nearer than its shoulder).
     arm_heading: the direction the arm reaches, in the base frame (0: forward, -pi/2: to the right);
         base poses turn this side to the target.
     grip_rotation: rows of the grasp site's rotation in the chain's last link (site x = approach).
@@ -80,7 +81,7 @@ class RobotDescription:
     tuck: tuple[float, ...] = ()
     reach_low: tuple[float, ...] = ()
     reach_high: tuple[float, ...] = ()
-    reach_near: tuple[float, ...] = ()  # a telescoping arm's retracted top-down configuration (radius_min)
+    reach_near: tuple[float, ...] = ()  # the configuration that gives radius_min (empty: 0)
     tilts: bool = False  # the arm pitches at the shoulder: it reaches below/above its lift range, less far
     arm_heading: float = 0.0
     grip_rotation: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -163,6 +164,9 @@ def manipulathor() -> RobotDescription:
         footprint_radius=MANIPULATHOR_BODY_RADIUS, base_height=0.3, chain=chain, mount=MANIPULATHOR_ARM_ROOT,
         boxes=boxes, tuck=(0.9, 0.0, -1.5, 2.6, 1.0, 0.0),
         reach_low=(MANIPULATHOR_ARM_HEIGHT[0], 0.0, 0.0, 0.0, math.pi / 2, 0.0),
+        # the arm hanging straight down: the grasp centre under the shoulder, the nearest (horizontally)
+        # a target can be while in front of it (AI2-THOR refuses targets behind the shoulder)
+        reach_near=(MANIPULATHOR_ARM_HEIGHT[1], 0.0, math.pi / 2, 0.0, 0.0, 0.0),
         reach_high=(MANIPULATHOR_ARM_HEIGHT[1], 0.0, 0.0, 0.0, math.pi / 2, 0.0), tilts=True, camera_height=1.576)
 
 
