@@ -134,6 +134,34 @@ def test_sayplan_open_loop_vs_moma_replanning_after_a_failure(cfg):
     assert [a["action"]["object"] for a in failed] == ["apple_1"]
 
 
+class _PromptLog(FakeScoreClient):
+    """FakeScoreClient that keeps every score prompt."""
+
+    def __init__(self):
+        super().__init__()
+        self.prompts: list[str] = []
+
+    def score(self, req):
+        self.prompts.append(req.prompt)
+        return super().score(req)
+
+
+def test_moma_replans_in_score_mode_from_the_failure_and_what_was_executed(cfg):
+    """Score mode's replan scores the command again with the execution so far and the failure's
+    text before the request (generate mode's replan prompt carries the same two); the oracle's
+    scores are ground truth: its replan asks no model."""
+    cfg.llm.temperature = 0.0
+    client = _PromptLog()
+    rec, _ = run_tiny_mission("moma_llm", cfg, hard=("apple_1",), client=client)
+    assert rec["commands"][0]["summary"]["replans"] == 1
+    told = [p for p in client.prompts if "An action failed during execution:" in p]
+    assert told, "no score prompt carried the failure"
+    assert all("pickup(apple_1" in p and "FAILED" in p and p.index("FAILED") < p.index("Request:") for p in told)
+    assert all("Executed so far: navigate(" in p for p in told)
+    assert len(told) >= 3  # the objects', the targets' and the rooms' prompts of the one replan
+    assert "An action failed" not in client.prompts[0]  # the proposals before it were told nothing
+
+
 def test_blocked_navigation_is_skipped_and_recorded(cfg):
     cfg.llm.temperature = 0.0
     rec, world = run_tiny_mission("sayplan", cfg, blocked=("counter_1",))

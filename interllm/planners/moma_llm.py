@@ -7,8 +7,10 @@ failing on every sampled pose, blocked path, action not executable) it asks the 
 replan the rest of the command from the failure text, at most ``planner.moma_max_replans`` times
 per command, excluding the failed object (pickup or navigation to it failed) or the failed target
 (navigation to it or placing failed). The target of the plan being executed is kept unless it
-failed (in score mode every other furniture is excluded as a target; the generate-mode prompt
-carries the failure text and the excluded objects).
+failed (in score mode every other furniture is excluded as a target). The model is told the
+failure's text and the actions executed so far in every mode that asks one: in the generate-mode
+replan prompt, and before the request of the score prompts the score-mode replan scores the
+command with (docs/protocol.md).
 """
 
 from __future__ import annotations

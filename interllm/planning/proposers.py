@@ -34,6 +34,7 @@ from interllm.planning.costs import decode_cost
 from interllm.planning.feasibility import FeasibilityReport
 from interllm.planning.memory import KnownCosts
 from interllm.planning.request import PlanRequest
+from interllm.planning.text import execution_text
 from interllm.registry import Registry
 from interllm.scene.graph import SceneGraph
 
@@ -145,8 +146,15 @@ class ScorePlans:
     def repair(self, req, plan, report, *, round_index, candidate):
         return scoring.repair_by_scores(plan, self.scores(req), req)
 
+    def replan_scores(self, req: PlanRequest, executed: Sequence[str], failure: str) -> scoring.SemanticScores:
+        """The command's scores for a replan: the execution so far and the failure's text shown
+        before the request (as generate mode's replan prompt shows them), no known costs."""
+        return scoring.score_command(self.client, req.scene, req.command, self.cfg, known=None, context=req.context,
+                                     history=execution_text(executed, failure))
+
     def replan(self, req, *, executed, failure, attempt, seed):
-        plans = scoring.propose_by_scores(self.scores(replace(req, known=None)), req, n_plans=1,
+        req = replace(req, known=None)
+        plans = scoring.propose_by_scores(self.replan_scores(req, executed, failure), req, n_plans=1,
                                           temperature=self.cfg.plan_sampling_temperature, seed=seed)
         return plans[0] if plans else ()
 
@@ -173,6 +181,10 @@ class ScoreCosts:
 @PLAN_PROPOSERS.register("oracle")
 class OraclePlans(ScorePlans):
     """Score-mode proposals over the oracle's ground-truth scores (``planning.oracle``); no LLM call."""
+
+    def replan_scores(self, req: PlanRequest, executed: Sequence[str], failure: str) -> scoring.SemanticScores:
+        """The oracle's scores: ground truth, which no execution text changes."""
+        return self.scores(req)
 
     def scores(self, req: PlanRequest) -> scoring.SemanticScores:
         """The oracle's scores of ``req``'s command (known costs play no part)."""

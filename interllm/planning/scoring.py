@@ -111,20 +111,22 @@ def _score(client, purpose: str, tpl, fields: dict, continuations: Sequence[str]
 
 
 def score_command(client, scene: SceneGraph, command: Command, cfg: LLMConfig, *,
-                  known: Optional[KnownCosts] = None, context: tuple = ()) -> SemanticScores:
+                  known: Optional[KnownCosts] = None, context: tuple = (), history: str = "") -> SemanticScores:
     """Score categories, instances and target furniture of ``scene`` for ``command.text``.
 
     Few-shot prompts (``score_objects``, ``score_source_room``, ``score_target``, ``score_room``
     templates) and a per-purpose calibration mode (``SCORE_MODES``). Target score of a furniture =
     score of its category + score of its room type (both short continuations: mean token log-probs
     of long phrases are dominated by the shared words). Instance score = category score + score of
-    "<category> on the <furniture> in the <room>" for the objects the hierarchy expands (module doc)."""
+    "<category> on the <furniture> in the <room>" for the objects the hierarchy expands (module doc).
+    ``history``: text shown before the request after the known costs (a replan's execution so far
+    and failure, ``text.execution_text``)."""
     if not scene.objects or not scene.furniture:
         raise ValueError(f"scene {scene.id!r} has no objects or no furniture to plan with")
     kc = known_costs_text(known)
     cats = sorted({o.category for o in scene.objects.values()})
     tpl_o = load_template("score_objects")
-    base = {"known_costs": kc, "command": command.text}
+    base = {"known_costs": kc + history, "command": command.text}
     cat_scores = _score(client, "score_objects", tpl_o, {**base, "query": "Useful item:"},
                         [f" {words(c)}" for c in cats], calibrate=cfg.calibrate, context=context)
     categories = dict(zip(cats, cat_scores, strict=True))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from typing import Optional
 
 from interllm.core.actions import Action, Plan
@@ -72,6 +73,14 @@ def known_costs_text(known: Optional[KnownCosts]) -> str:
     for r in known.maned:
         lines.append(f"- {r.action}: {encode_cost(r.cost)} ({r.cost:.1f})")
     return "\n".join(lines) + "\n"
+
+
+def execution_text(executed: Sequence[str], failure: str) -> str:
+    """What a replan is told of the command's execution: the actions executed so far (each with
+    " ok" or " FAILED") and the failure's text; the prefix of the score prompts of a score-mode
+    replan (generate mode puts the same two into its replan prompt)."""
+    done = "; ".join(executed) or "(nothing)"
+    return f"Executed so far: {done}\nAn action failed during execution: {failure}\n"
 
 
 def plan_text(plan: Plan) -> str:
