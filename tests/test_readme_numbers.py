@@ -123,6 +123,8 @@ def render_value(data: dict, path: str, fmt: str | None) -> str:
     value, nd, plus = lookup(data, path), int(m["nd"] or 0), bool(m["plus"])
     if isinstance(value, str):
         return value
+    if value is None:  # a JSON null: no such value (e.g. no break-even when both deliver the same)
+        return "none"
     kind = m["kind"] or ("f" if m["nd"] else "d")
     if kind == "d":
         if value is None or value != int(value):
