@@ -149,6 +149,7 @@ def test_plans_and_cost_labels_take_their_temperatures_separately(monkeypatch):
     monkeypatch.setattr(scoring, "propose_by_scores", lambda *a, **k: seen.append(k["temperature"]) or [])
     p = proposers.PLAN_PROPOSERS.get("score")(client=None, cfg=cfg)
     monkeypatch.setattr(p, "scores", lambda *a, **k: None)
+    monkeypatch.setattr(p, "replan_scores", lambda *a, **k: None)  # a replan scores the command anew
     req = PlanRequest(tiny_scene(), START, tiny_mission().commands[0], 3)
     p.propose(req, n_plans=3, seed=0)
     p.replan(req, executed=(), failure="", attempt=0, seed=0)
