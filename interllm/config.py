@@ -17,25 +17,31 @@ Units are in the field comments: metres [m], seconds [s], radians [rad].
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import re
 from dataclasses import dataclass, field
 from typing import Optional
 
+from interllm.config_planners import (  # noqa: F401  (re-exported: one import for the schema)
+    COST_ENCODINGS,
+    LEGACY_PLANNER_KEYS,
+    NAV_ESTIMATES,
+    InterLLMConfig,
+    MoMaLLMConfig,
+    SayPlanConfig,
+    build_section,
+)
 from interllm.config_sim import POSE_PROTOCOLS, ROBOTS, SimConfig  # noqa: F401  (re-exported: one import for the schema)
-from interllm.config_types import ConfigError, coerce
+from interllm.config_types import ConfigError
 from interllm.config_types import check as _check
 from interllm.config_types import choice as _choice
 
 # llm.cache_mode (interllm/llm/cache.py); retry_failures: readwrite, but failed answers are asked again
 CACHE_MODES = ("readwrite", "replay", "off", "retry_failures")
-NAV_ESTIMATES = ("paper_sum", "weighted_mean", "prior")  # interllm/planning/costs.py
 SCENE_SIZES = ("paper", "medium", "large", "huge", "tiny", "custom")
 SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/floor_plans.py)
 OBJECT_DESIGNS = ("graded", "legacy")  # scene.object_design (interllm/scene/graded_objects.py, surface_objects.py)
 MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stages/feasibility.py)
 ORACLE_COSTS = ("classes", "numeric")  # llm.oracle_costs (interllm/planning/oracle.py)
-COST_ENCODINGS = ("paper", "expected")  # planner.cost_encoding (interllm/planning/costs.py)
 CANDIDATE_DIVERSITY = ("objects", "plans")  # llm.candidate_diversity (interllm/planning/scoring.py)
 # sweep: the report section an experiment's multirun jobs feed (interllm/stages/report.py finds
 # them by it); "" for none
@@ -248,33 +254,31 @@ def check_api_key_env(value: object) -> None:
 
 @dataclass
 class PlannerConfig:
+    """``planner``: which planners run, what they share (candidates, repair, fairness), and each
+    planner's own settings under ``planner.<name>`` (interllm/config_planners.py)."""
+
     # registered planners to run; nothing and optimal are the anchors every table places the others
     # between (doing nothing; the cheapest assignment on ground-truth costs), never judged
     names: list[str] = field(default_factory=lambda: ["inter_llm", "sayplan", "moma_llm", "nothing", "optimal"])
     M: int = 3  # plan candidates per command
     max_regenerations: int = 3  # feasibility-repair rounds per candidate (bounded loop)
-    # one of NAV_ESTIMATES (interllm/planning/costs.py): paper_sum: the paper's equation; prior: the
-    # path's length times a similarity-weighted mean of the known costs per metre, with the path's
-    # own cost per metre as a prior
-    nav_estimate: str = "prior"
-    epsilon_d: float = 1.0  # [m] path-overlap distance scale of P°
-    moma_max_replans: int = 3  # MoMa-LLM replans after execution failures, per command
-    sayplan_max_iterations: int = 3  # SayPlan symbolic-simulator replanning rounds
     # true: like Inter-LLM, SayPlan and MoMa-LLM propose commands 2.. from the current scene and
     # state, excluding delivered objects (only Inter-LLM's prompts carry known costs); false: they
     # take every command's plans from the mission-start candidates
     fair_baselines: bool = True
-    # paper: a manipulation estimate is the decoded class (or the known cost); expected: plus the
-    # expected loss of the object, gamma_obj times the chance the action fails outright
-    # (interllm/planning/costs.py)
-    cost_encoding: str = "paper"
-    # expected encoding: the chance that an action labelled "hard" fails outright (a class stands for
-    # a cost range; "hard" covers both slow-but-sure and never-succeeding manipulations)
-    hard_failure_prob: float = 0.5
     # Python modules imported (in every process, the missions stage's workers too) before planners
     # are looked up: a planner defined outside this package registers itself there with
     # @PLANNERS.register (docs/extending.md)
     modules: list[str] = field(default_factory=list)
+    # each built-in planner's own settings; a variant registered with ablates=<name> reads <name>'s
+    inter_llm: InterLLMConfig = field(default_factory=InterLLMConfig)
+    sayplan: SayPlanConfig = field(default_factory=SayPlanConfig)
+    moma_llm: MoMaLLMConfig = field(default_factory=MoMaLLMConfig)
+    # the nodes planner.<name> of planners defined outside the package, as composed ({name: {key:
+    # value}}): from_dict puts them here, interllm.stages.validate checks each against the dataclass
+    # its planner registers once planner.modules are imported. Not a config key of its own: the Hydra
+    # schema leaves it out and to_dict writes each node back under planner.<name>
+    external: dict = field(default_factory=dict)
 
     def validate(self) -> None:
         _check(len(self.names) >= 1, "planner.names", "must list at least one planner")
@@ -283,14 +287,12 @@ class PlannerConfig:
         _check(len(set(self.names)) == len(self.names), "planner.names", "has duplicates")
         _check(1 <= self.M <= 20, "planner.M", f"must be in [1, 20], got {self.M}")
         _check(0 <= self.max_regenerations <= 20, "planner.max_regenerations", "must be in [0, 20]")
-        _choice(self.nav_estimate, "planner.nav_estimate", NAV_ESTIMATES)
-        _check(self.epsilon_d > 0, "planner.epsilon_d", f"must be > 0, got {self.epsilon_d}")
-        _check(0 <= self.moma_max_replans <= 20, "planner.moma_max_replans", "must be in [0, 20]")
-        _check(1 <= self.sayplan_max_iterations <= 20, "planner.sayplan_max_iterations",
-               "must be in [1, 20]")
-        _choice(self.cost_encoding, "planner.cost_encoding", COST_ENCODINGS)
-        _check(0.0 <= self.hard_failure_prob <= 1.0, "planner.hard_failure_prob",
-               f"must be in [0, 1], got {self.hard_failure_prob}")
+        self.inter_llm.validate()
+        self.sayplan.validate()
+        self.moma_llm.validate()
+
+
+PLANNER_NODES = {"inter_llm": InterLLMConfig, "sayplan": SayPlanConfig, "moma_llm": MoMaLLMConfig}
 
 
 @dataclass
@@ -384,32 +386,44 @@ def from_dict(d: dict, source: str = "") -> ExperimentConfig:
     """Build and validate an ExperimentConfig from a plain nested dict (e.g. params.yaml).
 
     Checks every value's type against the dataclass annotations and rejects unknown keys (also
-    those added with Hydra's ``+key=value``), naming the key, ``source`` and the valid choices.
+    those added with Hydra's ``+key=value``), naming the key, ``source`` and the valid choices. Under
+    ``planner``, a mapping under a name that is no PlannerConfig key is the node of a planner defined
+    outside the package (``PlannerConfig.external``, checked once its module is imported).
     """
-    def build(cls, data, prefix):
-        if not isinstance(data, dict):
-            raise ConfigError(f"config key '{prefix[:-1]}'{f' (in {source})' if source else ''} must be a "
-                              f"mapping of keys, got {data!r}")
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - set(fields), key=str)
-        if unknown:
-            close = difflib.get_close_matches(str(unknown[0]), list(fields), n=1)
-            raise ConfigError(f"config key '{prefix}{unknown[0]}'{f' (in {source})' if source else ''} is "
-                              f"unknown{f' (did you mean {prefix}{close[0]!s}?)' if close else ''}; valid "
-                              f"keys: {sorted(fields)}")
-        kwargs = {}
-        for k, v in data.items():
-            if cls is ExperimentConfig and k in _GROUPS:
-                kwargs[k] = build(_GROUPS[k], {} if v is None else v, f"{k}.")
-            else:
-                kwargs[k] = coerce(v, str(fields[k].type), f"{prefix}{k}", source)
-        obj = cls(**kwargs)
-        if cls is not ExperimentConfig:
-            obj.validate()
-        return obj
+    def group(k, v):
+        data = {} if v is None else v
+        return _planner_from_dict(data, source) if k == "planner" else build_section(_GROUPS[k], data, f"{k}.", source)
 
-    return build(ExperimentConfig, d, "")
+    if isinstance(d, dict):
+        d = {k: (group(k, v) if k in _GROUPS else v) for k, v in d.items()}
+    return build_section(ExperimentConfig, d, "", source)
+
+
+def _planner_from_dict(data: dict, source: str) -> PlannerConfig:
+    """The ``planner`` group: its own keys and built-in nodes typed; a mapping under any other name
+    kept as an external planner's node; a flat key the nodes replaced named with its new key."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"config key 'planner'{f' (in {source})' if source else ''} must be a mapping of "
+                          f"keys, got {data!r}")
+    own = {f.name for f in dataclasses.fields(PlannerConfig)} - {"external"}
+    for key in data:
+        if key in LEGACY_PLANNER_KEYS:
+            node, new = LEGACY_PLANNER_KEYS[key]
+            raise ConfigError(f"config key 'planner.{key}'{f' (in {source})' if source else ''} is now "
+                              f"'planner.{node}.{new}' (each planner's own settings are under planner.<name>); "
+                              f"write planner.{node}.{new}={data[key]}")
+    external = {k: v for k, v in data.items() if k not in own and isinstance(v, dict)}
+    cfg = build_section(PlannerConfig, {k: v for k, v in data.items() if k not in external and k not in PLANNER_NODES},
+                        "planner.", source)
+    for name, cls in PLANNER_NODES.items():
+        setattr(cfg, name, build_section(cls, {} if data.get(name) is None else data[name], f"planner.{name}.", source))
+    cfg.external = {k: dict(v) for k, v in external.items()}
+    return cfg
 
 
 def to_dict(cfg: ExperimentConfig) -> dict:
-    return dataclasses.asdict(cfg)
+    """The config as a plain nested dict, as it is composed: each external planner's node under
+    ``planner.<name>``."""
+    out = dataclasses.asdict(cfg)
+    out["planner"].update(out["planner"].pop("external"))
+    return out

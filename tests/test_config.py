@@ -61,6 +61,11 @@ def test_quick_is_one_scene_one_mission_all_planners():
     ("llm.backend=chatgpt", "llm.backend", "openai"),
     ("llm.cache_mode=sometimes", "llm.cache_mode", "replay"),
     ("sim.n_l=0", "sim.n_l", "[1, 50]"),
+    ("planner.inter_llm.nav_estimate=mean", "planner.inter_llm.nav_estimate", "paper_sum"),
+    ("planner.sayplan.max_iterations=0", "planner.sayplan.max_iterations", "[1, 20]"),
+    ("planner.moma_llm.max_replans=-1", "planner.moma_llm.max_replans", "[0, 20]"),
+    ("planner.MM=3", "planner.MM", "planner.M"),
+    ("planner.sayplam.max_iterations=2", "planner.sayplam", "planner.sayplan"),
     ("sim.pose_protocol=random", "sim.pose_protocol", "reach"),
     ("sim.pose_reach=0.1", "sim.pose_reach", "sim.robot_radius"),
     ("sim.pose_margin=-0.1", "sim.pose_margin", "[0, 1]"),
@@ -71,16 +76,57 @@ def test_out_of_range_values_name_the_key_and_valid_values(override, key, hint):
     assert f"'{key}'" in str(e.value) and hint in str(e.value)
 
 
-def test_unknown_key_fails_at_composition_naming_it():
+@pytest.mark.parametrize("override", ["llm.temprature=0.5", "planner.inter_llm.nav_estimat=prior"])
+def test_unknown_key_fails_at_composition_naming_it(override):
     with pytest.raises(Exception) as e:
-        compose(["llm.temprature=0.5"])
-    assert "llm.temprature" in str(e.value)
+        compose([override])
+    assert override.split("=")[0] in str(e.value)
 
 
 def test_wrong_type_fails_at_composition():
     with pytest.raises(Exception) as e:
         compose(["planner.M=three"])
     assert "M" in str(e.value)
+
+
+def test_a_typed_planner_node_rejects_a_wrong_type_at_composition():
+    with pytest.raises(Exception) as e:
+        compose(["planner.inter_llm.epsilon_d=wide"])
+    assert "planner.inter_llm.epsilon_d" in str(e.value)
+
+
+def test_each_planner_gets_its_own_node_and_a_variant_the_node_of_what_it_ablates():
+    from interllm.planners.base import make_planner
+
+    cfg = to_config(compose(["planner=mechanism", "planner.inter_llm.nav_estimate=paper_sum",
+                             "planner.inter_llm.epsilon_d=2.5", "planner.sayplan.max_iterations=5",
+                             "planner.moma_llm.max_replans=1"]))
+    full = make_planner("inter_llm", cfg.planner).settings
+    assert (full.nav_estimate, full.epsilon_d) == ("paper_sum", 2.5)
+    for variant in ("inter_llm_no_learning", "inter_llm_no_cost_choice", "inter_llm_no_carry_over"):
+        assert make_planner(variant, cfg.planner).settings == full  # paired: every other setting equal
+    assert make_planner("sayplan", cfg.planner).settings.max_iterations == 5
+    assert make_planner("moma_llm", cfg.planner).settings.max_replans == 1
+    assert not hasattr(make_planner("nothing", cfg.planner), "settings")  # registers none: built bare
+
+
+@pytest.mark.parametrize("old, new", [("nav_estimate=paper_sum", "inter_llm.nav_estimate"),
+                                      ("moma_max_replans=1", "moma_llm.max_replans"),
+                                      ("sayplan_max_iterations=2", "sayplan.max_iterations")])
+def test_a_flat_key_of_the_old_layout_is_refused_with_its_new_name(old, new):
+    with pytest.raises(ConfigError, match=rf"'planner.{old.split('=')[0]}'.* is now 'planner.{new}'"):
+        to_config(compose([f"planner.{old}"]))
+
+
+def test_an_outside_planners_node_is_kept_as_composed_and_written_back_where_it_was():
+    from interllm.config import to_dict
+
+    cfg = from_dict({"planner": {"names": ["inter_llm"], "mine": {"horizon": 5}}})
+    assert cfg.planner.external == {"mine": {"horizon": 5}}
+    assert to_dict(cfg)["planner"]["mine"] == {"horizon": 5} and "external" not in to_dict(cfg)["planner"]
+    assert from_dict(to_dict(cfg)) == cfg
+    with pytest.raises(ConfigError, match=r"'planner.mine' is neither .*registered planner"):
+        to_config(compose(["+planner.mine.horizon=5"]))  # no module registers a planner with that node
 
 
 def test_unknown_planner_group_lists_choices():

@@ -170,22 +170,34 @@ def test_unregistered_names_fail_before_any_output(tmp_path):
 
 # -- "Adding a planner" as docs/extending.md writes it: a module outside the package, a conf/ file,
 # Hydra composition and the missions stage's worker processes -----------------------------------------
-OUTSIDE_PLANNER = '''"""A planner defined outside the interllm package."""
+OUTSIDE_PLANNER = '''"""A planner defined outside the interllm package, with a setting of its own."""
+from dataclasses import dataclass
+
 from interllm.planners.base import PLANNERS
 from interllm.planners.execution import execute_plan, finish, new_result
 
 
-@PLANNERS.register("first_shared", label="First shared candidate", color="tab:purple", order=5)
-class FirstSharedPlanner:
-    name = "first_shared"
+@dataclass
+class SharedPickConfig:
+    pick: int = 0  # which of the shared candidates to execute (0: the first)
+
+
+@PLANNERS.register("shared_pick", label="Picked shared candidate", color="tab:purple", order=5,
+                   config=SharedPickConfig)
+class SharedPickPlanner:
+    name = "shared_pick"
+
+    def __init__(self, settings):
+        self.settings = settings  # planner.shared_pick
 
     def run_command(self, command, ctx):
         ctx.start_command()
         result = new_result(command)
         proposed = ctx.shared_candidates(command)
         if proposed:
-            result.selected_plan, result.candidates = proposed[0], [proposed[0]]
-            execute_plan(ctx, command, proposed[0], result)
+            chosen = proposed[min(self.settings.pick, len(proposed) - 1)]
+            result.selected_plan, result.candidates = chosen, proposed
+            execute_plan(ctx, command, chosen, result)
         return finish(ctx, result)
 '''
 
@@ -197,24 +209,33 @@ def test_the_planner_recipe_through_conf_hydra_and_two_worker_processes(tmp_path
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")
     (tmp_path / "my_planners").mkdir()
     (tmp_path / "my_planners" / "__init__.py").write_text("")
-    (tmp_path / "my_planners" / "first_shared.py").write_text(OUTSIDE_PLANNER)
+    (tmp_path / "my_planners" / "shared_pick.py").write_text(OUTSIDE_PLANNER)
     monkeypatch.syspath_prepend(str(tmp_path))  # the spawned workers start with the parent's sys.path
     conf = tmp_path / "conf"
     shutil.copytree(ROOT / "conf", conf)
-    (conf / "planner" / "first_shared.yaml").write_text(  # step 3 of the recipe
-        "names: [first_shared, sayplan]\nmodules: [my_planners.first_shared]\n")
-    cfg = to_config(compose(["experiment=quick", "planner=first_shared", "jobs=2", "metrics.judge=first_shared",
+    (conf / "planner" / "shared_pick.yaml").write_text(  # step 3 of the recipe: its own node included
+        "names: [shared_pick, sayplan]\nmodules: [my_planners.shared_pick]\nshared_pick:\n  pick: 1\n")
+    cfg = to_config(compose(["experiment=quick", "planner=shared_pick", "jobs=2", "metrics.judge=shared_pick",
                              f"llm.cache_dir={ROOT / 'data' / 'llm_cache'}", "llm.cache_mode=replay"], conf))
-    assert cfg.planner.names == ["first_shared", "sayplan"] and cfg.jobs == 2
-    assert "my_planners.first_shared" not in PLANNERS.builtins  # nothing in the package names it
+    assert cfg.planner.names == ["shared_pick", "sayplan"] and cfg.jobs == 2
+    assert cfg.planner.external == {"shared_pick": {"pick": 1}}
+    assert "my_planners.shared_pick" not in PLANNERS.builtins  # nothing in the package names it
     run_scenes(cfg, tmp_path / "scenes")
     run_candidates(cfg, tmp_path / "scenes", tmp_path / "candidates")
     run_missions(cfg, tmp_path / "scenes", tmp_path / "candidates", tmp_path / "runs")
     metrics = run_aggregate(cfg, tmp_path / "runs", tmp_path / "scenes", tmp_path / "metrics")
-    shown = metrics["planners"]["first_shared"]
-    assert shown["label"] == "First shared candidate" and shown["anchor"] is False
-    assert metrics["settings"]["judge"] == "first_shared" and set(metrics["improvement"]) == {"first_shared_vs_sayplan"}
-    rec = json.loads(next((tmp_path / "runs" / "first_shared").rglob("m000.json")).read_text())
-    assert rec["commands"][0]["summary"]["selected_plan"]
+    shown = metrics["planners"]["shared_pick"]
+    assert shown["label"] == "Picked shared candidate" and shown["anchor"] is False
+    assert metrics["settings"]["judge"] == "shared_pick" and set(metrics["improvement"]) == {"shared_pick_vs_sayplan"}
+    summary = json.loads(next((tmp_path / "runs" / "shared_pick").rglob("m000.json")).read_text())["commands"][0]["summary"]
+    assert len(summary["candidates"]) >= 2 and summary["candidates"][0] != summary["candidates"][1]
+    assert summary["selected_plan"] == summary["candidates"][1]  # its setting reached the worker that ran it
+    for override, message in (("planner.shared_pick.pik=2", r"'planner.shared_pick.pik'.*unknown.*did you mean "
+                                                            r"planner.shared_pick.pick\?"),
+                              ("planner.shared_pick.pick=one", r"'planner.shared_pick.pick'.*must be an integer"),
+                              ("planner.shared_pik.pick=1", r"'planner.shared_pik' is neither.*did you mean "
+                                                            r"planner.shared_pick\?")):
+        with pytest.raises(ConfigError, match=message):
+            to_config(compose(["planner=shared_pick", override], conf))
     with pytest.raises(ConfigError, match=r"planner.modules.*cannot import 'my_planners.nowhere'.*PYTHONPATH"):
-        to_config(compose(["planner=first_shared", "planner.modules=[my_planners.nowhere]"], conf))
+        to_config(compose(["planner=shared_pick", "planner.modules=[my_planners.nowhere]"], conf))

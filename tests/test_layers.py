@@ -17,7 +17,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "interllm"
 LAYERS = [
-    {"errors", "numerics", "llama_build", "core", "config_types", "config_sim", "config", "overrides", "registry", "io", "progress", "lifetime",
+    {"errors", "numerics", "llama_build", "core", "config_types", "config_sim", "config_planners", "config", "overrides", "registry", "io", "progress", "lifetime",
      "imports_log", "lazy", "__init__"},
     {"scene", "llm"},
     {"planning"},
@@ -29,7 +29,7 @@ LAYERS = [
     {"cli"},
 ]
 # inside the base layer the order matters too (what may import what)
-BASE_ORDER = ["errors", "numerics", "llama_build", "core", "config_types", "config_sim", "config", "overrides", "registry", "io", "progress",
+BASE_ORDER = ["errors", "numerics", "llama_build", "core", "config_types", "config_sim", "config_planners", "config", "overrides", "registry", "io", "progress",
               "lifetime", "imports_log", "lazy", "__init__"]
 
 

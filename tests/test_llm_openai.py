@@ -185,7 +185,7 @@ def test_the_paper_generate_loop_through_a_real_server(real_server, tmp_path, mo
     (candidates, regeneration, replan) in about two minutes; the slow test below runs all of it."""
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")
     _generate_loop(real_server, tmp_path, {"planner": {"names": ["moma_llm"], "M": 1, "max_regenerations": 1,
-                                                       "moma_max_replans": 1}})
+                                                       "moma_llm": {"max_replans": 1}}})
 
 
 @pytest.mark.integration

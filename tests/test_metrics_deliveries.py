@@ -308,7 +308,8 @@ def test_encoding_runs_are_found_paired_and_reported(runs):
         (job / ".hydra").mkdir(parents=True)
         (job / ".hydra" / "config.yaml").write_text(json.dumps(
             {"experiment": "oracle_sweep", "llm": {"oracle_error": err, "oracle_costs": oc, "cache_dir": f"/c{n}"},
-             "planner": {"cost_encoding": ce}}))
+             # jobs 0-2 as composed before each planner had its own node (a flat planner.cost_encoding)
+             "planner": {"cost_encoding": ce} if n < 3 else {"inter_llm": {"cost_encoding": ce}}}))
         write_metrics(runs / "runs", runs / "scenes", cfg, job / "data" / "metrics")
     found = find_encoding_results(sweep)
     assert [(g, v) for g, v, _ in found] == [

@@ -175,11 +175,11 @@ def test_estimate_variants_are_paired_against_this_run(experiment):
     root, cfg = experiment
     mdir = root / "m1"
     write_metrics(root / "runs", root / "scenes", cfg, mdir)
-    assert cfg.planner.nav_estimate == "prior"  # this run's estimate: its own row, never a variant of itself
+    assert cfg.planner.inter_llm.nav_estimate == "prior"  # this run's estimate: its own row, never a variant of itself
     out = build_report(mdir, root / "scenes", root / "runs", root / "rep_est", cfg,
                        estimate_results=[("paper_sum", mdir), ("prior", mdir), ("weighted_mean", root / "missing")])
     md = out["markdown"].read_text(encoding="utf-8")
-    assert "## Cost-estimate variants (planner.nav_estimate)" in md
+    assert "## Cost-estimate variants (planner.inter_llm.nav_estimate)" in md
     section = md.split("## Cost-estimate variants")[1].split("##")[0]
     row = next(line for line in section.splitlines() if line.startswith("| paper_sum |"))
     assert "0.0% [0.0, 0.0]" in row  # the same runs: no difference, and an interval of width 0

@@ -295,7 +295,7 @@ def test_the_expected_encoding_steers_inter_llm_away_from_an_object_that_always_
                         oracle_costs="numeric", temperature=0.0)
     cfg.planner.M = 3
     rec_paper, _ = run_tiny_mission("inter_llm", cfg, hard=("banana_1",))
-    cfg.planner.cost_encoding = "expected"
+    cfg.planner.inter_llm.cost_encoding = "expected"
     rec_exp, _ = run_tiny_mission("inter_llm", cfg, hard=("banana_1",))
     # every breakfast candidate needs the banana (two objects asked, apple and banana the only
     # relevant ones), so the estimates grow by gamma_obj for each plan that picks it up

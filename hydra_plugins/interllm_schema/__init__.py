@@ -27,9 +27,22 @@ SCHEMA_NAME = "root"
 PID_RESOLVER = "interllm_pid"
 
 
+def schema():
+    """ExperimentConfig as Hydra's typed node, its ``planner`` node open to keys it does not declare:
+    ``planner.<name>`` of a planner defined outside the package (``planner.modules``), whose
+    dataclass Hydra cannot know before that module is imported. Its declared keys stay typed; what
+    it does not declare is checked by ``interllm.config.from_dict`` and, once the planner's module is
+    imported, against the dataclass it registers. ``planner.external`` (where from_dict keeps those
+    nodes) is no key of the composed config."""
+    node = OmegaConf.structured(ExperimentConfig)
+    OmegaConf.set_struct(node.planner, False)
+    del node.planner["external"]
+    return node
+
+
 def register() -> None:
-    """Store ExperimentConfig as ``_schema/root`` (idempotent: a second call overwrites the entry)."""
-    ConfigStore.instance().store(group=SCHEMA_GROUP, name=SCHEMA_NAME, node=ExperimentConfig, package="_global_")
+    """Store the schema as ``_schema/root`` (idempotent: a second call overwrites the entry)."""
+    ConfigStore.instance().store(group=SCHEMA_GROUP, name=SCHEMA_NAME, node=schema(), package="_global_")
     # conf/config.yaml's run folders end in the process id: unique per run process
     OmegaConf.register_new_resolver(PID_RESOLVER, os.getpid, replace=True)
 

@@ -57,12 +57,12 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
 
     metrics_dir: output of the aggregate stage; scenes_dir: ``data/scenes`` (topdown.png pictures);
     runs_dir: ``data/runs`` (MCAP links); cfg: ExperimentConfig or None (ε of the path-similarity
-    figure = ``cfg.planner.epsilon_d``); temperature_results / m_results: (label, metrics_dir)
+    figure = ``cfg.planner.inter_llm.epsilon_d``); temperature_results / m_results: (label, metrics_dir)
     pairs of other runs (labels like "0.2" / "M=3"); folders without metrics.json are skipped;
-    estimate_results: (planner.nav_estimate, metrics_dir) pairs; oracle_results:
+    estimate_results: (planner.inter_llm.nav_estimate, metrics_dir) pairs; oracle_results:
     (llm.oracle_error, metrics_dir) pairs of an oracle sweep on the same missions;
     encoding_results: (group, variant, metrics_dir) of runs differing only in llm.oracle_costs and/or
-    planner.cost_encoding (``sweep_sections.encoding_section``).
+    planner.inter_llm.cost_encoding (``sweep_sections.encoding_section``).
     The judged planner and how each planner is shown (label, colour, order, anchor) come from
     metrics.json (``settings.judge``, ``planners``): the report reads results, not planner code.
     Returns {"markdown", "html", "figures"} paths.
@@ -107,7 +107,7 @@ def _write_report(metrics: dict, judge: str, metrics_dir: Path, scenes_dir: Path
     summary_sections.manipulation_section(doc, metrics.get("manipulation", {}),
                                           metrics_dir / "manipulation_attributes.csv")
 
-    eps = float(cfg.planner.epsilon_d) if cfg is not None else 1.0
+    eps = float(cfg.planner.inter_llm.epsilon_d) if cfg is not None else 1.0
     figures = figure_sections.metric_figures(doc, cumulative, summary, fig_dir, eps)
     figure_sections.scenes_section(doc, scenes_dir, scene_ids)
     figures += figure_sections.trajectories_section(doc, runs_dir, scene_ids, fig_dir)
@@ -120,7 +120,7 @@ def _write_report(metrics: dict, judge: str, metrics_dir: Path, scenes_dir: Path
     paper_tables.table_ii_section(doc, metrics_dir, temperature_results)
     sweep_sections.m_ablation_section(doc, m_results, judge)
     sweep_sections.estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], judge,
-                                     cfg.planner.nav_estimate if cfg is not None else "this run's estimate")
+                                     cfg.planner.inter_llm.nav_estimate if cfg is not None else "this run's estimate")
     f = sweep_sections.capability_section(doc, metrics, [(float(e), Path(d)) for e, d in oracle_results], fig_dir,
                                           judge)
     if f is not None:

@@ -19,7 +19,7 @@ from interllm.metrics.deliveries import paired_runs
 from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
 from interllm.metrics.stats import houses_of, paired_improvement
 
-ENCODING_KEYS = ("llm.oracle_costs", "planner.cost_encoding")
+ENCODING_KEYS = ("llm.oracle_costs", "planner.inter_llm.cost_encoding")
 ENCODING_DEFAULTS = ("classes", "paper")  # the paper's: three cost classes, the paper's text encoding
 
 
@@ -79,12 +79,12 @@ def m_ablation_section(doc: Doc, m_results: Sequence[tuple[str, str | os.PathLik
 
 def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str, Path]], judge: str,
                       current: str) -> None:
-    """Each cost-estimate variant's m_overall beside this run's (``planner.nav_estimate`` = ``current``),
+    """Each cost-estimate variant's m_overall beside this run's (``planner.inter_llm.nav_estimate`` = ``current``),
     paired over the missions both ran, and which the default should be."""
     got = [(lab, d) for lab, d in variants if (d / "per_mission.csv").is_file() and lab != current]
     if not got:
         return
-    doc.h(2, "Cost-estimate variants (planner.nav_estimate)")
+    doc.h(2, "Cost-estimate variants (planner.inter_llm.nav_estimate)")
     doc.p(f"{plots.label(judge)} with each variant on the same missions as this run ({current}; paper_sum is "
           f"the paper's equation); change = paired reduction of m_overall against {current} (positive: the "
           f"variant is cheaper), 95% house-clustered bootstrap CI.")
@@ -202,7 +202,7 @@ def capability_section(doc: Doc, metrics: Mapping, oracles: Sequence[tuple[float
 
 def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics: Mapping,
                      judge: str) -> None:
-    """Runs that differ only in ``llm.oracle_costs`` and/or ``planner.cost_encoding``: results are
+    """Runs that differ only in ``llm.oracle_costs`` and/or ``planner.inter_llm.cost_encoding``: results are
     (group, variant label, metrics_dir) with one group per setting of every other key
     (``interllm.stages.report.find_encoding_results``); each variant of a group is paired against
     the group's paper encoding (``BASE_ENCODING``, else its first variant) on the missions both ran."""
@@ -218,7 +218,7 @@ def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics
     ref = plots.label(judge)
     doc.h(2, "Cost encoding: class or numeric oracle costs, paper or expected encoding")
     doc.p(f"{ref} in runs that differ only in llm.oracle_costs (classes: the paper's three cost classes; numeric: "
-          "the measured cost) and/or planner.cost_encoding (paper; expected: plus γ_obj × the chance the action "
+          "the measured cost) and/or planner.inter_llm.cost_encoding (paper; expected: plus γ_obj × the chance the action "
           f"fails outright). Each variant is paired against {BASE_ENCODING} of its group on the missions both ran "
           "(variant − base; 95% paired house-clustered bootstrap CIs; the position difference resamples the missions jointly for "
           f"{ref} and both anchors of both runs).")

@@ -81,7 +81,7 @@ class PlannerContext:
     planner: str
     seed_base: int = 0  # llm.seed: every planner seed derives from it
     base_speed: float = 0.5  # [m/s] sim.base_speed, for the cost of a presumed path without history
-    gamma_obj: float = 100.0  # metrics.gamma_obj: what losing an object costs (planner.cost_encoding=expected)
+    gamma_obj: float = 100.0  # metrics.gamma_obj: what losing an object costs (planner.inter_llm.cost_encoding=expected)
     initial_candidates: dict[str, list[Plan]] = field(default_factory=dict)  # command id -> M plans
     delivered: set[str] = field(default_factory=set)  # objects delivered by earlier commands
     command_delivered: list[str] = field(default_factory=list)  # delivered by the current command

@@ -10,7 +10,7 @@ Per command:
    navigate (from the robot's pose for the first one, else from the anchor of the previous
    furniture, via ``world.presumed_path``) compared with every navigated path (P°); manipulation
    costs inferred by the LLM from the known ones (an exact (action, state) already measured uses
-   its known cost; ``planner.cost_encoding=expected`` adds the expected loss of the object,
+   its known cost; ``planner.inter_llm.cost_encoding=expected`` adds the expected loss of the object,
    ``planning.costs.expected_failure_cost``); ĉ_total = Σ ĉ_nav + Σ ĉ_man · N_valid/N_man;
 4. execute the argmin action by action (``world.execute``), updating C^known with every result;
    a failed action skips the rest of that object's actions (see ``PlannerContext.execute_plan``).
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from interllm.config import InterLLMConfig
 from interllm.core.actions import Action, Plan, State, apply_effects, plan_to_list
 from interllm.planners.base import PLANNERS, CommandResult
 from interllm.planners.context import PlannerContext
@@ -43,9 +44,12 @@ def robot_xy(world) -> np.ndarray:
     return np.asarray(world.robot_pose, dtype=float).reshape(-1)[:2]
 
 
-@PLANNERS.register("inter_llm", label="Inter-LLM (ours)", color="tab:green", order=2)
+@PLANNERS.register("inter_llm", label="Inter-LLM (ours)", color="tab:green", order=2, config=InterLLMConfig)
 class InterLLMPlanner:
     name = "inter_llm"
+
+    def __init__(self, settings: InterLLMConfig | None = None) -> None:
+        self.settings = settings if settings is not None else InterLLMConfig()  # planner.inter_llm
 
     # ---- what the known costs reach (``inter_llm_ablations`` overrides these and ``select``) ----
     def known_for_proposals(self, ctx: PlannerContext) -> KnownCosts:
@@ -66,7 +70,7 @@ class InterLLMPlanner:
     # ---- estimation ---------------------------------------------------------------------
     def estimate(self, plan: Plan, command: Command, ctx: PlannerContext, paths: dict, labels: dict,
                  result: CommandResult) -> PlanEstimate:
-        world, cfg = ctx.world, ctx.cfg
+        world, cfg = ctx.world, self.settings
         state: State = world.state
         prev = None  # previous furniture (None: start from the robot's pose)
         nav: list[CostEstimate] = []
@@ -94,8 +98,8 @@ class InterLLMPlanner:
                                result: CommandResult) -> CostEstimate:
         """ĉ_man of one pickup or place in ``state``: its known cost when the (action, state) pair was
         measured, else the LLM's inferred class decoded (once per pair; ``inferences`` memoises),
-        with ``planner.cost_encoding=expected`` plus the expected loss of the object."""
-        cfg, mem = ctx.cfg, self.known_for(a, state, ctx)
+        with ``planner.inter_llm.cost_encoding=expected`` plus the expected loss of the object."""
+        cfg, mem = self.settings, self.known_for(a, state, ctx)
         rec = mem.manipulation_record(a, state)
         if rec is not None:
             est = CostEstimate(str(a), a.kind, rec.cost, "known", encode_cost(rec.cost), True)

@@ -13,11 +13,13 @@
   paths or similar actions, and proposals carry no known costs.
 
 Each is registered with ``ablates="inter_llm"``: the report pairs it against full Inter-LLM on the
-missions both ran (``metrics.mechanism``).
+missions both ran (``metrics.mechanism``), and it reads Inter-LLM's settings (``planner.inter_llm``),
+so the pair differs in the removed part alone.
 """
 
 from __future__ import annotations
 
+from interllm.config import InterLLMConfig
 from interllm.core.actions import Action, Plan, State
 from interllm.planners.base import PLANNERS, CommandResult
 from interllm.planners.context import PlannerContext
@@ -27,7 +29,7 @@ from interllm.scene.graph import Command
 
 
 @PLANNERS.register("inter_llm_no_learning", label="Inter-LLM − learning", color="tab:olive", order=5,
-                   ablates="inter_llm")
+                   ablates="inter_llm", config=InterLLMConfig)
 class NoLearningPlanner(InterLLMPlanner):
     name = "inter_llm_no_learning"
 
@@ -37,7 +39,7 @@ class NoLearningPlanner(InterLLMPlanner):
 
 
 @PLANNERS.register("inter_llm_no_cost_choice", label="Inter-LLM − cost choice", color="tab:cyan", order=6,
-                   ablates="inter_llm")
+                   ablates="inter_llm", config=InterLLMConfig)
 class NoCostChoicePlanner(InterLLMPlanner):
     name = "inter_llm_no_cost_choice"
 
@@ -47,7 +49,7 @@ class NoCostChoicePlanner(InterLLMPlanner):
 
 
 @PLANNERS.register("inter_llm_no_carry_over", label="Inter-LLM − carry-over", color="tab:purple", order=7,
-                   ablates="inter_llm")
+                   ablates="inter_llm", config=InterLLMConfig)
 class NoCarryOverPlanner(InterLLMPlanner):
     name = "inter_llm_no_carry_over"
 

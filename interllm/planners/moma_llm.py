@@ -4,7 +4,7 @@ Closed-loop without cost look-ahead: executes the first feasible shared initial 
 ``planner.fair_baselines``, for commands after the first: of M candidates proposed from the current
 state, without known costs) after the bounded feasibility repair (planner.max_regenerations). After an execution failure (pickup
 failing on every sampled pose, blocked path, action not executable) it asks the proposer to
-replan the rest of the command from the failure text, at most ``planner.moma_max_replans`` times
+replan the rest of the command from the failure text, at most ``planner.moma_llm.max_replans`` times
 per command, excluding the failed object (pickup or navigation to it failed) or the failed target
 (navigation to it or placing failed). The target of the plan being executed is kept unless it
 failed (in score mode every other furniture is excluded as a target). The model is told the
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Optional
 
+from interllm.config import MoMaLLMConfig
 from interllm.core.actions import Action, Plan, plan_to_list
 from interllm.core.results import ActionResult
 from interllm.planners.base import PLANNERS, CommandResult
@@ -27,9 +28,12 @@ from interllm.planning.request import Exclusions
 from interllm.scene.graph import Command
 
 
-@PLANNERS.register("moma_llm", label="MoMa-LLM", color="tab:blue", order=1)
+@PLANNERS.register("moma_llm", label="MoMa-LLM", color="tab:blue", order=1, config=MoMaLLMConfig)
 class MoMaLLMPlanner:
     name = "moma_llm"
+
+    def __init__(self, settings: MoMaLLMConfig | None = None) -> None:
+        self.settings = settings if settings is not None else MoMaLLMConfig()  # planner.moma_llm
 
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
         result, selected = open_baseline_command(ctx, command, max_rounds=ctx.cfg.max_regenerations)
@@ -41,8 +45,8 @@ class MoMaLLMPlanner:
 
         def replanner(res: Optional[ActionResult], text: str, action: Action,
                       delivered: list[str]) -> Optional[Plan]:
-            if result.replans >= ctx.cfg.moma_max_replans:
-                result.notes.append(f"replan bound ({ctx.cfg.moma_max_replans}) reached")
+            if result.replans >= self.settings.max_replans:
+                result.notes.append(f"replan bound ({self.settings.max_replans}) reached")
                 return None
             world = ctx.world
             if action.kind == "place" or (action.kind == "navigate" and world.state.holding is not None):

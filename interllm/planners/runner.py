@@ -8,7 +8,7 @@ from typing import Any, Optional
 
 from interllm.config import ExperimentConfig
 from interllm.core.records import CommandRecord, GoalRecord, MissionRecord
-from interllm.planners.base import PLANNERS
+from interllm.planners.base import make_planner
 from interllm.planners.candidates import candidates_from_json, initial_commands
 from interllm.planners.context import LLMCallObserver, PlannerContext
 from interllm.planners.world_view import WorldView
@@ -31,7 +31,7 @@ def run_mission(planner_name: str, world: WorldView, mission: Mission, initial_c
     on_command_end(record so far, simulated time [s]): called after each command (the missions
     stage logs the command's executed result with it).
     """
-    planner = PLANNERS.get(planner_name)()
+    planner = make_planner(planner_name, cfg.planner)
     missing = [c.id for c in initial_commands(mission, cfg) if c.id not in initial_candidates]
     if missing:
         raise ValueError(f"initial candidates lack command(s) {missing} of mission {mission.id!r}; "

@@ -8,7 +8,7 @@
       grows with the history and is 0 for a path that overlaps no known path.
     * ``weighted_mean``: ĉ = Σ_i c_i·P° / Σ_i P°, a similarity-weighted mean of the known costs
       (same units as c_nav). When Σ P° = 0 (no known path overlaps) it falls back as below.
-    * ``prior`` (ours, ``planner.nav_estimate``'s default; no novelty bias): ĉ = L · (r_0 + Σ_i w_i r_i) / (1 + Σ_i w_i), with L the
+    * ``prior`` (ours, ``planner.inter_llm.nav_estimate``'s default; no novelty bias): ĉ = L · (r_0 + Σ_i w_i r_i) / (1 + Σ_i w_i), with L the
       presumed path's length [m], r_i = c_i / L_i the known cost per metre, w_i = P°/200 ∈ [0, 1],
       and r_0 = 1/base_speed + 1 the presumed path's own cost per metre (no collision) as a prior of
       weight 1: a new path costs what its length says, a path like one that collided costs more.
@@ -16,7 +16,7 @@
       cost of the known manipulations of its kind instead of leaving it out.
   With no known navigation at all (the first command) every mode falls back to the presumed
   path's own cost c_nav with cc = 0: t = length/base_speed [s], d = length [m] (turn time ignored).
-- ``expected_failure_cost`` (``planner.cost_encoding=expected``, our option; the paper's encoding is
+- ``expected_failure_cost`` (``planner.inter_llm.cost_encoding=expected``, our option; the paper's encoding is
   the default): a manipulation's estimate plus γ_obj times the chance it fails outright, so a pickup
   that can never succeed weighs what losing the object costs. The chance: 1 for a known action whose
   every execution failed, 0 for any other known one; for an inferred class, ``hard_failure_prob`` for
@@ -102,7 +102,7 @@ def estimate_navigation(presumed_path, known: KnownCosts, eps: float, mode: str 
     """ĉ_nav for a presumed path [N, 2] [m] -> (estimate, source). ``eps``: ε [m];
     ``base_speed`` [m/s] for the fallback. See the module docstring for the two modes."""
     if mode not in NAV_MODES:
-        raise ValueError(f"planner.nav_estimate {mode!r} is not one of {list(NAV_MODES)}")
+        raise ValueError(f"planner.inter_llm.nav_estimate {mode!r} is not one of {list(NAV_MODES)}")
     if presumed_path is None:
         return UNREACHABLE_COST, "unreachable"
     p = np.asarray(presumed_path, dtype=float).reshape(-1, 2)

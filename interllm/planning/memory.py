@@ -42,7 +42,7 @@ class ManRecord:
     cost: float  # c^maned (fused)
     count: int = 1
     placement: Optional[Placement] = None  # where the object was when measured (llm.placement_attributes)
-    failed: bool = False  # every execution of it failed (planner.cost_encoding=expected reads it)
+    failed: bool = False  # every execution of it failed (planner.inter_llm.cost_encoding=expected reads it)
 
     def to_dict(self) -> dict:
         d = {"action": self.action.to_dict(), "state": self.state, "cost": float(self.cost), "count": self.count}

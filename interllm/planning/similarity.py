@@ -29,7 +29,7 @@ def mean_nearest_distance(p_i, p_j) -> float:
 def path_overlap(p_i, p_j, eps: float) -> float:
     """P°(p_i, p_j) in [0, 200]; ``p_i``, ``p_j``: [N, 2] paths [m]; ``eps``: ε [m] (> 0)."""
     if not eps > 0:
-        raise ValueError(f"eps (planner.epsilon_d) must be > 0 m, got {eps}")
+        raise ValueError(f"eps (planner.inter_llm.epsilon_d) must be > 0 m, got {eps}")
     d_ij = mean_nearest_distance(p_i, p_j)
     d_ji = mean_nearest_distance(p_j, p_i)
     t_ij = min(max(100.0 * (1.0 - d_ij / eps), 0.0), 100.0)

@@ -9,6 +9,7 @@ from pathlib import Path
 import yaml
 
 from interllm.config import ExperimentConfig
+from interllm.config_planners import upgrade_legacy_planner_keys
 from interllm.metrics.compare import flatten
 from interllm.metrics.report import build_report
 from interllm.metrics.sweep_sections import ENCODING_DEFAULTS, ENCODING_KEYS, encoding_label
@@ -41,6 +42,16 @@ def sweep_of(c: dict) -> str:
     return str(c.get("sweep") or _SWEEP_OF_EXPERIMENT.get(str(c.get("experiment")), ""))
 
 
+def job_config(cfg_file: Path) -> dict:
+    """A job's ``.hydra/config.yaml``, in today's layout: a job composed before each planner had its
+    own node keeps its planner settings as flat keys (``planner.nav_estimate``), moved here into
+    their nodes (``planner.inter_llm.nav_estimate``)."""
+    c = yaml.safe_load(cfg_file.read_text()) or {}
+    if isinstance(c.get("planner"), dict):
+        c["planner"] = upgrade_legacy_planner_keys(c["planner"])
+    return c
+
+
 def _jobs(roots: Iterable[Path], sweep: str) -> list[tuple[dict, Path]]:
     """(the job's .hydra/config.yaml, its metrics dir) of every job under ``roots`` that declares
     ``sweep`` and produced metrics.json."""
@@ -48,7 +59,7 @@ def _jobs(roots: Iterable[Path], sweep: str) -> list[tuple[dict, Path]]:
     for root in roots:
         for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
             metrics = cfg_file.parent.parent / "data" / "metrics"
-            c = yaml.safe_load(cfg_file.read_text()) or {}
+            c = job_config(cfg_file)
             if sweep_of(c) == sweep and (metrics / "metrics.json").is_file():
                 out.append((c, metrics))
     return out
@@ -64,7 +75,7 @@ def _get(c: dict, key: str, default: object = None) -> object:
 
 
 def _encoding(c: dict) -> tuple[str, str]:
-    """(llm.oracle_costs, planner.cost_encoding) of a job's config (the defaults where the config has none)."""
+    """(llm.oracle_costs, planner.inter_llm.cost_encoding) of a job's config (the defaults where the config has none)."""
     (oc_key, ce_key), (oc_default, ce_default) = ENCODING_KEYS, ENCODING_DEFAULTS
     return str(_get(c, oc_key, oc_default)), str(_get(c, ce_key, ce_default))
 
@@ -91,7 +102,7 @@ _IRRELEVANT = ("data_dir", "jobs", "verbose", "llm.cache_dir", "llm.cache_mode",
 
 def find_encoding_results(*roots: Path) -> list[tuple[str, str, Path]]:
     """Jobs under ``roots`` (any experiment) with metrics that differ only in ``llm.oracle_costs``
-    and/or ``planner.cost_encoding`` (read from each job's ``.hydra/config.yaml``, as the other
+    and/or ``planner.inter_llm.cost_encoding`` (read from each job's ``.hydra/config.yaml``, as the other
     sweeps are; keys in ``_IRRELEVANT`` are ignored): [(group, variant, metrics_dir)] where variant
     is ``encoding_label(oracle_costs, cost_encoding)`` and group names the settings the jobs of a group
     share and other groups do not ("" for a single group); only groups with at least two variants,
@@ -101,8 +112,7 @@ def find_encoding_results(*roots: Path) -> list[tuple[str, str, Path]]:
         for cfg_file in sorted(Path(root).rglob(".hydra/config.yaml")):
             metrics = cfg_file.parent.parent / "data" / "metrics"
             if (metrics / "metrics.json").is_file():
-                c = yaml.safe_load(cfg_file.read_text()) or {}
-                jobs.append((c, metrics))
+                jobs.append((job_config(cfg_file), metrics))
     groups: dict[tuple, dict[str, Path]] = {}
     for c, m in jobs:
         rest = {k: v if isinstance(v, str) else repr(v) for k, v in flatten(c).items()  # lists: hashable
@@ -119,9 +129,9 @@ def find_encoding_results(*roots: Path) -> list[tuple[str, str, Path]]:
 
 
 def find_estimate_results(*roots: Path) -> list[tuple[str, Path]]:
-    """Jobs declaring ``sweep: estimate`` under ``roots`` with metrics: [(planner.nav_estimate,
+    """Jobs declaring ``sweep: estimate`` under ``roots`` with metrics: [(planner.inter_llm.nav_estimate,
     metrics_dir)], sorted by the variant's name."""
-    return sorted((str(c["planner"]["nav_estimate"]), m) for c, m in _jobs(roots, "estimate"))
+    return sorted((str(c["planner"]["inter_llm"]["nav_estimate"]), m) for c, m in _jobs(roots, "estimate"))
 
 
 def find_sweep_results(*roots: Path) -> tuple[list[tuple[str, Path]], list[tuple[str, Path]]]:
