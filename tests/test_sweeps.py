@@ -46,6 +46,30 @@ def test_every_sweep_declares_its_grid_where_hydra_finds_it(experiment):
     assert params and all("," in str(v) for v in params.values()), params
 
 
+COMMITTED_SWEEPS = ROOT / "data" / "sweeps"
+
+
+def test_every_committed_job_carries_what_places_it_on_its_axis():
+    """A fresh clone rebuilds data/report_sweeps from data/sweeps alone: every job's config and
+    overrides are committed beside its metrics, in today's layout, and the report finds all of them."""
+    from interllm.stages.report import find_estimate_results
+
+    jobs = sorted(p.parent.parent.parent for p in COMMITTED_SWEEPS.glob("*/*/data/metrics/metrics.json"))
+    assert len(jobs) == 19  # 4 encoding, 2 estimate, 3 M, 4 oracle, 6 σ (make sweeps)
+    for job in jobs:
+        for f in ("config.yaml", "overrides.yaml"):
+            path = job / ".hydra" / f
+            assert path.is_file(), f"{path} is missing: the report cannot place this job"
+            if (ROOT / ".git").exists():  # and in git, not only on this machine
+                assert subprocess.run(["git", "-C", str(ROOT), "ls-files", "--error-unmatch", str(path)],
+                                      capture_output=True).returncode == 0, f"{path} is not committed"
+        assert job.name == job_name(yaml.safe_load((job / ".hydra" / "overrides.yaml").read_text()))
+    temperatures, ms = find_sweep_results(COMMITTED_SWEEPS)
+    found = (len(temperatures), len(ms), len(find_estimate_results(COMMITTED_SWEEPS)),
+             len(find_oracle_results(COMMITTED_SWEEPS)), len(find_encoding_results(COMMITTED_SWEEPS)))
+    assert found == (6, 3, 2, 5, 4), found  # the oracle axis: its 4 jobs and the encoding job at error 0
+
+
 def _fake_job(root: Path, experiment: str, num: int, overrides: list[str], config: dict) -> Path:
     job = root / experiment / str(num)
     (job / ".hydra").mkdir(parents=True)
@@ -83,8 +107,8 @@ def test_collected_jobs_keep_what_the_report_finds_them_by(tmp_path):
 
 
 def test_a_job_is_named_by_what_it_overrides_in_one_folder_name():
-    assert job_name(["experiment=encoding_comparison", "llm.oracle_costs=numeric", "planner.cost_encoding=paper"]) \
-        == "llm.oracle_costs_numeric,planner.cost_encoding_paper"
+    assert job_name(["experiment=encoding_comparison", "llm.oracle_costs=numeric", "planner.inter_llm.cost_encoding=paper"]) \
+        == "llm.oracle_costs_numeric,planner.inter_llm.cost_encoding_paper"
     assert job_name(["experiment=quick"]) == "default"
     hostile = job_name(["llm.model=a/../../../etc/x", "scene.import_path=/tmp/h"])
     assert "/" not in hostile and hostile == "llm.model_a_.._.._.._etc_x,scene.import_path__tmp_h"
