@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_token_floor.py                   # the quick experiment
     .venv/bin/python benchmarks/bench_token_floor.py experiment=paper  # any Hydra overrides
-    .venv/bin/python benchmarks/bench_token_floor.py --store-mb 0      # the alternative: no prefix store
+    .venv/bin/python benchmarks/bench_token_floor.py --out /tmp/run    # keep the run's folder
 
 Runs the scenes, candidates and missions stages in this process (``jobs=1``) into a temporary
 folder with an empty LLM cache, so the embedded model answers every call. The backend's prompt
@@ -12,8 +12,8 @@ unlogged preflight probe counts with that stage's first call). Per stage and pur
 the calls, the tokens sent (the call log's ``tokens_in``: prompt, calibration prompt and
 continuations), those served from the KV prefix cache (reused), those evaluated (prompt tokens not
 reused, calibration prompts not memoised, continuation tokens), those of the evaluated prompt tokens
-whose whole prefix this process had evaluated before (again: what keeping earlier prompts' KV cells,
-not only the last prompt's, could save), the seconds the calls took (wall,
+whose whole prefix this process had evaluated before (again: the most that keeping earlier prompts'
+KV cells, not only the last prompt's, could save), the seconds the calls took (wall,
 cold) and the floor: evaluated tokens ÷ the prompt tokens/s this CPU reaches at llm.n_threads,
 measured on a cold context. The ratio seconds ÷ floor is
 how far each phase is from evaluating each prompt token once at full speed; its remainder is
@@ -40,7 +40,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import numpy as np  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
-from interllm.llm import embedded  # noqa: E402
 from interllm.llm.client import LLMClient  # noqa: E402
 from interllm.llm.embedded import CHUNK, EmbeddedBackend  # noqa: E402
 from interllm.stages.candidates import run_candidates  # noqa: E402
@@ -52,9 +51,8 @@ PROBE_TOKENS = 1024  # prompt length of the speed probe [tokens], about one cost
 
 
 def prompt_speed(cfg, threads: int) -> float:
-    """Prompt tokens/s of the embedded model at ``threads`` threads, cold context, best of 3 (nothing
-    kept between the repeats: each evaluates the whole prompt)."""
-    be = EmbeddedBackend(dataclasses.replace(cfg.llm, n_threads=threads), prefix_store_bytes=0)
+    """Prompt tokens/s of the embedded model at ``threads`` threads, cold context, best of 3."""
+    be = EmbeddedBackend(dataclasses.replace(cfg.llm, n_threads=threads))
     words = " ".join(f"kitchen_counter_{i} holds bread_{i} and mug_{i}." for i in range(400))
     toks = be.tokenize(words)[:PROBE_TOKENS]
     best = 0.0
@@ -140,15 +138,10 @@ def phases(paths: list[Path], per_call: list[int]) -> dict[tuple[str, str], dict
 
 
 def main(argv: list[str]) -> None:
-    if "--store-mb" in argv:  # [MiB] of earlier prompts' KV cells each backend keeps (0: none)
-        i = argv.index("--store-mb")
-        embedded.PREFIX_STORE_BYTES = int(float(argv[i + 1]) * 2**20)
-        argv = argv[:i] + argv[i + 2:]
     keep = None
     if "--out" in argv:  # keep the run's folder (call logs, runs) there instead of a temporary one
         i = argv.index("--out")
         keep, argv = Path(argv[i + 1]), argv[:i] + argv[i + 2:]
-    print(f"prefix store: {embedded.PREFIX_STORE_BYTES / 2**20:g} MiB per backend")
     cfg = OmegaConf.to_object(compose(argv or ["experiment=quick"]))
     cfg.jobs = 1  # in this process, so the wrapped backend counts every call
     count_evaluated()

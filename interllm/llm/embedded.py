@@ -18,8 +18,7 @@ cannot build that context, each continuation is decoded alone on sequence 0 inst
 a function of the request alone, so a request's scores do not depend on what ran before. The score
 of a continuation is the mean log-prob of its tokens (log-softmax over the vocabulary, vectorised).
 Prompt tokens served from the KV prefix cache (the longest common prefix with the tokens already
-in the context, or with an earlier prompt whose cells :class:`~interllm.llm.prefix_store.PrefixStore`
-kept, when that one is longer) are counted and reported as ``prompt_tokens_reused``.
+in the context) are counted and reported as ``prompt_tokens_reused``.
 
 Deadline: ``llm.timeout_s`` bounds every call as a whole. Prompt evaluation checks it between
 chunks, generation after every token (a llama.cpp stopping criterion) and scoring between
@@ -53,15 +52,10 @@ from interllm.llm import llama_internals
 from interllm.llm.backend import BACKENDS, Generation, Scores
 from interllm.llm.deadline import DeadlineExceeded
 from interllm.llm.model_files import PACKAGED_MODEL, gguf_sha256, resolve_model_path
-from interllm.llm.prefix_store import PrefixStore
 from interllm.llm.types import LLMOptions, Message
 
 CHUNK = 64  # [tokens] prompt evaluation chunk; KV reuse happens in whole aligned chunks
 SCORE_SEQS = 32  # continuations scored in one batched decode (llama.cpp sequences 1..SCORE_SEQS)
-# [bytes] KV cells of earlier prompts' prefixes kept per process (interllm/llm/prefix_store.py): about
-# 12 cost-inference prompts of 1,200 tokens at Gemma 3 270M's 18 KB per token; 0 keeps none
-PREFIX_STORE_BYTES = 256 * 2**20
-MIN_KEPT_CHUNKS = 4  # a shorter prefix is cheaper to evaluate again than to keep and restore
 
 
 def format_messages(messages: Sequence[Message], style: str = "gemma") -> str:
@@ -145,23 +139,14 @@ class EmbeddedBackend:
 
     name = "embedded"
 
-    def __init__(self, cfg: LLMConfig, prompt_style: Optional[str] = None,
-                 prefix_store_bytes: Optional[int] = None) -> None:
-        """prefix_store_bytes: [bytes] of earlier prompts' KV cells to keep (None: PREFIX_STORE_BYTES,
-        read now; 0: none). It changes how much is evaluated, never a result."""
+    def __init__(self, cfg: LLMConfig, prompt_style: Optional[str] = None) -> None:
         self.cfg = cfg
-        budget = PREFIX_STORE_BYTES if prefix_store_bytes is None else int(prefix_store_bytes)
-        self._store = PrefixStore(budget, CHUNK) if budget > 0 else None
         self._llm = None
         self._path: Optional[Path] = None
         self._style = prompt_style
         self._lock = threading.Lock()
         self._calib_memo: dict[tuple[str, tuple[str, ...]], tuple[list[float], int]] = {}
         self._aligned = 0  # context positions [0, _aligned) were evaluated in aligned whole chunks
-        # the end of the last prefix restored from the store [tokens]: llama.cpp restores the cells its
-        # continuation needs, not all of them (Gemma 3's sliding-window layers keep the last 512
-        # positions), so the context is reused only from there on (0: evaluated from the start)
-        self._restored = 0
         self.load_seconds = 0.0  # wall time of the model load [s] (diagnostics only)
         self._deadline = math.inf  # time.monotonic() by which the current call must end [s]
         self._what = ""
@@ -192,8 +177,6 @@ class EmbeddedBackend:
                         seed=self.cfg.seed, logits_all=False, verbose=False)
             try:
                 self.multi_sequence = llama_internals.prepare(llm, SCORE_SEQS + 1)
-                if not llama_internals.can_save_sequences(llm):
-                    self._store = None
             except BaseException:
                 llm.close()
                 raise
@@ -263,27 +246,13 @@ class EmbeddedBackend:
 
     # -- scoring ------------------------------------------------------------------------------
     def _prefill(self, want: list[int]) -> int:
-        """Make the context hold exactly ``want``, reusing whole aligned chunks of the cached prefix
-        (or an earlier prompt's kept prefix that ``want`` begins with, when longer) and evaluating
-        the rest in position-aligned chunks; return the reused count. Two prefixes are kept for later
-        prompts (``PrefixStore``): the one ``want`` shares with the context's previous prompt (where
-        prompts of one kind part: a request's variable tail), and ``want``'s own aligned part."""
+        """Make the context hold exactly ``want``, reusing whole aligned chunks of the cached
+        prefix and evaluating the rest in position-aligned chunks; return the reused count."""
         llm = self.llm
-        cached = self._cached_tokens()
-        part = (min(_lcp(cached, want), self._aligned) // CHUNK) * CHUNK  # where want parts from it
-        keep = part if part >= self._restored else 0  # below a restored prefix's end cells are missing
-        stored = self._store.longest_within(want) if self._store is not None else None
-        if stored is not None and len(stored.tokens) > keep:
-            llama_internals.restore_sequence(llm, stored.tokens.tolist(), stored.data)
-            keep = self._restored = len(stored.tokens)
-        elif keep == 0:
-            self._restored = 0  # evaluated from the start: every cell is there
+        common = min(_lcp(self._cached_tokens(), want), self._aligned)
+        keep = (common // CHUNK) * CHUNK
         llama_internals.truncate(llm, keep)
         self._aligned = keep
-        whole = (len(want) // CHUNK) * CHUNK
-        marks = {whole, part} if part < len(cached) else {whole}  # the prefixes to keep
-        if keep == part and part in marks and part < whole:
-            self._keep(want[:part])
         pos = keep
         while pos < len(want):
             self._check_deadline()
@@ -291,16 +260,8 @@ class EmbeddedBackend:
             llm.eval(want[pos:end])
             pos = end
             self._aligned = (pos // CHUNK) * CHUNK
-            if pos in marks:  # the context holds exactly want[:pos]
-                self._keep(want[:pos])
-        self._aligned = whole
+        self._aligned = (len(want) // CHUNK) * CHUNK
         return keep
-
-    def _keep(self, tokens: list[int]) -> None:
-        """Keep the cells of ``tokens`` (what the context holds now) in the store, if there is one and
-        they are at least MIN_KEPT_CHUNKS chunks long."""
-        if self._store is not None and len(tokens) >= MIN_KEPT_CHUNKS * CHUNK:
-            self._store.add(tokens, llama_internals.save_sequence(self.llm))
 
     def _score_group(self, last_prompt_token: int, conts: list[list[int]], group: range) -> list[float]:
         """Mean log-probs of ``conts[group]`` after the context + ``last_prompt_token``, decoded in one
@@ -361,9 +322,7 @@ class EmbeddedBackend:
             return Scores(raw=raw, calibration=calib, tokens_in=tokens_in, prompt_tokens_reused=reused)
 
     def close(self) -> None:
-        self._aligned = self._restored = 0
-        if self._store is not None:  # the cells go with the context
-            self._store = PrefixStore(self._store.max_bytes, CHUNK)
+        self._aligned = 0
         if self._llm is not None:
             try:
                 self._llm.close()

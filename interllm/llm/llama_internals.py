@@ -28,7 +28,6 @@ comparable bit for bit only on the tested release.
 
 from __future__ import annotations
 
-import ctypes
 import inspect
 import logging
 from collections.abc import Callable, Sequence
@@ -192,39 +191,6 @@ def _swap_in_multi_sequence_context(llm: Any, n_seq_max: int, context_type: type
 def evaluated_tokens(llm: Any) -> list[int]:
     """The tokens the context holds (positions ``[0, llm.n_tokens)``)."""
     return list(llm._input_ids[: llm.n_tokens]) if llm.n_tokens else []
-
-
-# restoring an earlier prompt's KV cells (interllm.llm.prefix_store); without them nothing is restored
-STATE_BINDINGS = ("llama_state_seq_get_size", "llama_state_seq_get_data", "llama_state_seq_set_data")
-
-
-def can_save_sequences(llm: Any) -> bool:
-    """Whether the installed bindings copy a sequence's KV cells out and back (STATE_BINDINGS) and
-    ``llm`` keeps its evaluated tokens in ``input_ids``."""
-    bindings = _bindings()
-    return all(hasattr(bindings, n) for n in STATE_BINDINGS) and hasattr(llm, "input_ids")
-
-
-def save_sequence(llm: Any) -> ctypes.Array:
-    """llama.cpp's serialisation of sequence 0's KV cells (a byte buffer): the prompt the context
-    holds, positions ``[0, llm.n_tokens)`` (call it with no other sequence in the context)."""
-    bindings, ctx = _bindings(), llm._ctx.ctx
-    size = int(bindings.llama_state_seq_get_size(ctx, 0))
-    buf = (ctypes.c_uint8 * size)()
-    if int(bindings.llama_state_seq_get_data(ctx, buf, size, 0)) != size:
-        raise RuntimeError(f"llama_state_seq_get_data copied less than the {size} bytes of sequence 0")
-    return buf
-
-
-def restore_sequence(llm: Any, tokens: Sequence[int], data: ctypes.Array) -> None:
-    """Make the context hold ``tokens`` from ``data``, a :func:`save_sequence` taken when it held them:
-    the same cells, bit for bit, that evaluating ``tokens`` gives."""
-    bindings = _bindings()
-    truncate(llm, 0)
-    if int(bindings.llama_state_seq_set_data(llm._ctx.ctx, data, len(data), 0)) == 0:
-        raise RuntimeError(f"llama_state_seq_set_data could not restore {len(tokens)} prompt tokens")
-    llm.input_ids[: len(tokens)] = tokens
-    llm.n_tokens = len(tokens)
 
 
 def truncate(llm: Any, keep: int) -> None:
