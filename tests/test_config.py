@@ -301,3 +301,27 @@ def test_a_missing_schema_plugin_is_named(monkeypatch):
     monkeypatch.delitem(ConfigStore.instance().repo, "_schema")
     with pytest.raises(ConfigError, match=r"hydra_plugins/interllm_schema .*`make install`"):
         compose([])
+
+
+def test_an_outside_planners_settings_are_checked_against_its_dataclass_before_anything_runs():
+    from dataclasses import dataclass
+
+    from interllm.stages.validate import check_registered
+
+    @dataclass
+    class HorizonConfig:
+        horizon: int  # no default: must be set
+        label: str = "h"
+
+    PLANNERS.register("horizon_probe", config=HorizonConfig)(lambda settings: settings)
+    try:
+        for node, message in (({}, r"'planner.horizon_probe.horizon'.* is required"),
+                              ({"horizon": "far"}, r"'planner.horizon_probe.horizon'.* must be an integer"),
+                              ({"horizon": 3, "lable": "x"}, r"'planner.horizon_probe.lable'.*did you mean "
+                                                              r"planner.horizon_probe.label\?")):
+            cfg = from_dict({"planner": {"names": ["horizon_probe"], "horizon_probe": node}})
+            with pytest.raises(ConfigError, match=message):
+                check_registered(cfg)
+        check_registered(from_dict({"planner": {"names": ["horizon_probe"], "horizon_probe": {"horizon": 3}}}))
+    finally:
+        PLANNERS.unregister("horizon_probe")
