@@ -278,7 +278,7 @@ class PlannerConfig:
     # value}}): from_dict puts them here, interllm.stages.validate checks each against the dataclass
     # its planner registers once planner.modules are imported. Not a config key of its own: the Hydra
     # schema leaves it out and to_dict writes each node back under planner.<name>
-    external: dict = field(default_factory=dict)
+    external: dict = field(default_factory=dict, metadata={"internal": True})
 
     def validate(self) -> None:
         _check(len(self.names) >= 1, "planner.names", "must list at least one planner")
@@ -405,7 +405,7 @@ def _planner_from_dict(data: dict, source: str) -> PlannerConfig:
     if not isinstance(data, dict):
         raise ConfigError(f"config key 'planner'{f' (in {source})' if source else ''} must be a mapping of "
                           f"keys, got {data!r}")
-    own = {f.name for f in dataclasses.fields(PlannerConfig)} - {"external"}
+    own = {f.name for f in dataclasses.fields(PlannerConfig) if not f.metadata.get("internal")}
     for key in data:
         if key in LEGACY_PLANNER_KEYS:
             node, new = LEGACY_PLANNER_KEYS[key]

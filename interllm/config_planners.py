@@ -100,7 +100,7 @@ def build_section(cls: type, data: Any, prefix: str, source: str = "") -> Any:
     where = f" (in {source})" if source else ""
     if not isinstance(data, dict):
         raise ConfigError(f"config key '{prefix[:-1]}'{where} must be a mapping of keys, got {data!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}
+    fields = {f.name: f for f in dataclasses.fields(cls) if not f.metadata.get("internal")}  # no config keys
     unknown = sorted(set(data) - set(fields), key=str)
     if unknown:
         close = difflib.get_close_matches(str(unknown[0]), list(fields), n=1)

@@ -123,6 +123,8 @@ def test_an_outside_planners_node_is_kept_as_composed_and_written_back_where_it_
 
     cfg = from_dict({"planner": {"names": ["inter_llm"], "mine": {"horizon": 5}}})
     assert cfg.planner.external == {"mine": {"horizon": 5}}
+    with pytest.raises(ConfigError, match=r"valid keys: \[.M., .fair_baselines., .inter_llm., .max_regenerations., .modules., .moma_llm., .names., .sayplan.\]"):
+        from_dict({"planner": {"MM": 3}})  # where external nodes are kept is no key to offer
     assert to_dict(cfg)["planner"]["mine"] == {"horizon": 5} and "external" not in to_dict(cfg)["planner"]
     assert from_dict(to_dict(cfg)) == cfg
     with pytest.raises(ConfigError, match=r"'planner.mine' is neither .*registered planner"):
