@@ -26,6 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from _usage import overrides  # noqa: E402  (benchmarks/_usage.py, beside this script)
 from omegaconf import OmegaConf  # noqa: E402
 
 from interllm.scene import load_missions  # noqa: E402
@@ -36,7 +37,7 @@ from pipeline._hydra import compose  # noqa: E402
 
 
 def main(argv: list[str]) -> None:
-    cfg = OmegaConf.to_object(compose(argv))
+    cfg = OmegaConf.to_object(compose(overrides(argv, __doc__)))
     # every command's candidates from the mission's start state (the stage makes only the first
     # command's by default: later commands are proposed when they run), so each command is scored
     cfg.planner.fair_baselines = False

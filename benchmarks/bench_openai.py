@@ -26,6 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
+from _usage import no_arguments  # noqa: E402  (benchmarks/_usage.py, beside this script)
 from helpers.openai_server import llama_server  # noqa: E402
 
 from interllm.config import from_dict  # noqa: E402
@@ -71,4 +72,5 @@ def main() -> int:
 
 
 if __name__ == "__main__":
+    no_arguments(sys.argv[1:], __doc__)
     raise SystemExit(main())

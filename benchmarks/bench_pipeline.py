@@ -27,6 +27,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from _usage import overrides  # noqa: E402  (benchmarks/_usage.py, beside this script)
 from omegaconf import OmegaConf  # noqa: E402
 
 from interllm.stages.aggregate import run_aggregate  # noqa: E402
@@ -77,6 +78,7 @@ def warm_only(argv: list[str]) -> None:
 
 
 def main(argv: list[str]) -> None:
+    argv = overrides(argv, __doc__)
     if "--warm" in argv:
         return warm_only([a for a in argv if a != "--warm"])
     cfg = OmegaConf.to_object(compose(argv))

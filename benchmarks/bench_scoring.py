@@ -26,6 +26,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from _usage import no_arguments  # noqa: E402  (benchmarks/_usage.py, beside this script)
+
 from interllm.config import LLMConfig  # noqa: E402
 from interllm.llm import make_client  # noqa: E402
 from interllm.llm.prompts import load_template  # noqa: E402
@@ -75,4 +77,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    no_arguments(sys.argv[1:], __doc__)
     main()

@@ -12,9 +12,11 @@ from __future__ import annotations
 import interllm  # noqa: F401  (first: pins BLAS and SIMD before numpy loads; interllm/numerics.py)
 # isort: on
 
+import sys
 import time
 
 import numpy as np
+from _usage import no_arguments  # benchmarks/_usage.py, beside this script
 
 from interllm.planning.similarity import path_overlap, path_overlap_bruteforce
 
@@ -47,4 +49,5 @@ def main(n: int = 2000, eps: float = 1.0) -> dict:
 
 
 if __name__ == "__main__":
+    no_arguments(sys.argv[1:], __doc__)
     main()

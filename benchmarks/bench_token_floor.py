@@ -38,6 +38,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np  # noqa: E402
+from _usage import overrides  # noqa: E402  (benchmarks/_usage.py, beside this script)
 from omegaconf import OmegaConf  # noqa: E402
 
 from interllm.llm.client import LLMClient  # noqa: E402
@@ -142,7 +143,7 @@ def main(argv: list[str]) -> None:
     if "--out" in argv:  # keep the run's folder (call logs, runs) there instead of a temporary one
         i = argv.index("--out")
         keep, argv = Path(argv[i + 1]), argv[:i] + argv[i + 2:]
-    cfg = OmegaConf.to_object(compose(argv or ["experiment=quick"]))
+    cfg = OmegaConf.to_object(compose(overrides(argv, __doc__) or ["experiment=quick"]))
     cfg.jobs = 1  # in this process, so the wrapped backend counts every call
     count_evaluated()
     with tempfile.TemporaryDirectory() as tmp:
