@@ -79,3 +79,26 @@ def test_a_failing_run_names_the_job_and_keeps_the_call_log(inputs, monkeypatch,
             run_missions(cfg, root / "scenes", root / "candidates", out)
         assert (out / "llm_calls.jsonl").is_file()  # merged even after the failure
         assert not list(out.glob(".llm_calls.worker*"))
+
+
+def test_the_runs_are_the_same_with_or_without_the_scenes_stage_measurements(inputs, monkeypatch, tmp_path):
+    """The missions stage starts from the scenes stage's measurements.json; measuring everything
+    itself instead gives byte-identical runs (sim.measurements: a measurement on the initial map
+    depends on its key alone)."""
+    import shutil
+
+    from interllm.sim.measurements import MEASUREMENTS_FILE
+
+    monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    root, cfg = inputs
+    cfg.jobs = 1
+    bare = tmp_path / "scenes"
+    shutil.copytree(root / "scenes", bare)
+    removed = [p.unlink() or p for p in bare.glob(f"*/{MEASUREMENTS_FILE}")]
+    assert removed
+    run_missions(cfg, root / "scenes", root / "candidates", tmp_path / "with")
+    run_missions(cfg, bare, root / "candidates", tmp_path / "without")
+    files = sorted(p.relative_to(tmp_path / "with") for p in (tmp_path / "with").rglob("m*.json"))
+    assert len(files) == len(cfg.planner.names)
+    for f in files:
+        assert (tmp_path / "with" / f).read_bytes() == (tmp_path / "without" / f).read_bytes(), f

@@ -21,6 +21,7 @@ from interllm.scene.graph import Mission, SceneGraph
 from interllm.scene.grid import OccupancyGrid, rasterize
 from interllm.sim.belief import BeliefMap
 from interllm.sim.manipulator import Manipulator
+from interllm.sim.measurements import MISSING, MeasurementStore
 from interllm.sim.navigator import Navigator
 from interllm.sim.physics import MujocoWorld
 
@@ -33,10 +34,14 @@ class World:
     grid_resolution: [m] per cell of the occupancy grids.
     grids: {"presumed", "true"} grids of this scene already made (the scenes stage's ``grid.npz``);
         rasterized here when not given.
+    measurements: manipulation measurements on this scene's initial map already made (the scenes
+        stage's ``measurements.json``, ``sim.measurements``); the world adds its own to it, so
+        later missions use them too. A fresh store when not given.
     """
 
     def __init__(self, scene: SceneGraph, sim_cfg: Optional[SimConfig] = None, grid_resolution: float = 0.05,
-                 grids: Optional[dict[str, OccupancyGrid]] = None) -> None:
+                 grids: Optional[dict[str, OccupancyGrid]] = None,
+                 measurements: Optional[MeasurementStore] = None) -> None:
         self.cfg = sim_cfg or SimConfig()
         self.cfg.validate()
         self.resolution = float(grid_resolution)
@@ -54,7 +59,8 @@ class World:
         self.state = State(None, None, None)
         self.clock = 0.0
         self.log: list[ActionResult] = []
-        self._measured: dict[tuple, Optional[ActionResult]] = {}
+        self._measured: dict[tuple, Optional[ActionResult]] = {}  # this mission's, on any map
+        self.measurements = measurements if measurements is not None else MeasurementStore(self.cfg, self.resolution)
         self.physics.reset(self.scene, (0.0, 0.0, 0.0))
 
     @property
@@ -96,7 +102,8 @@ class World:
         scene as it is now, with the robot at the furniture's anchor (where a navigate to it ends),
         the hand free for a pickup and holding the object for a place. A scratch measurement: the
         scene, state, clock, map and robot are untouched. None when the action cannot be tried
-        (``Manipulator.measure``). Memoised per action and layout of the furniture's surroundings."""
+        (``Manipulator.measure``). Memoised per action and layout of the furniture's surroundings
+        for the mission; on the initial map also in ``measurements``, across missions and stages."""
         if action.kind not in ("pickup", "place"):
             raise ValueError(f"measure_manipulation takes a pickup or place, got {action}")
         if action.furniture not in self.scene.furniture:
@@ -104,9 +111,19 @@ class World:
         exclude = (action.obj,) if action.kind == "place" else ()
         key = (str(action), self.manipulator.layout_key(self.scene, action.furniture, exclude))
         if key not in self._measured:
-            self._measured[key] = self.manipulator.measure(self.belief, self.scene, action,
-                                                           self.anchor(action.furniture))
+            self._measured[key] = self._measure(action, key)
         return self._measured[key]
+
+    def _measure(self, action: Action, key: tuple) -> Optional[ActionResult]:
+        """The measurement of ``action``: from ``measurements`` on the initial map (belief version 0,
+        where a measurement depends on its key alone: ``sim.measurements``), else made now."""
+        initial_map = self.belief.version == 0
+        if initial_map and (kept := self.measurements.get(key)) is not MISSING:
+            return kept
+        result = self.manipulator.measure(self.belief, self.scene, action, self.anchor(action.furniture))
+        if initial_map:
+            self.measurements.put(key, result)
+        return result
 
     def execute(self, action: Action) -> ActionResult:
         """Run one high-level action; advances ``clock`` by ``result.time`` and, on success,

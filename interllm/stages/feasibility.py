@@ -39,6 +39,7 @@ from interllm.scene.graph import Mission, SceneGraph, SceneObject
 from interllm.scene.grid import OccupancyGrid
 from interllm.scene.missions import CommandFill, Fulfillable
 from interllm.sim.grasp_goals import place_spot
+from interllm.sim.measurements import MeasurementStore
 from interllm.sim.reach_report import CAUSES, pickup_cause
 from interllm.sim.world import World
 
@@ -88,6 +89,7 @@ class SceneFeasibility:
     commands: dict[str, CommandMeasure]
     reach: dict[str, dict] = field(default_factory=dict)  # per furniture category (``_reach``)
     all_pickups: bool = True  # pickups holds every object (else only the instances examined)
+    measurements: Optional[MeasurementStore] = None  # every measurement made, for the stages after (``sim.measurements``)
 
     def fulfillable(self) -> Fulfillable:
         """The plain data the mission draw takes."""
@@ -143,7 +145,8 @@ def measure_scene(scene: SceneGraph, sim_cfg: SimConfig, grid_resolution: float,
         if targets:
             commands[spec.id] = _measure_command(world, spec, targets, pickup, k, need)
     measured = {o: pickups[o] for o in sorted(pickups)}
-    return SceneFeasibility(scene.id, int(k), measured, commands, _reach(scene, measured), all_pickups)
+    return SceneFeasibility(scene.id, int(k), measured, commands, _reach(scene, measured), all_pickups,
+                            world.measurements)
 
 
 def _measure_command(world: World, spec: CommandSpec, targets: tuple[str, ...],

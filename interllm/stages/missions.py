@@ -30,6 +30,7 @@ from interllm.progress import progress
 from interllm.record.recorder import McapRecorder
 from interllm.record.topics import COMMAND_RESULTS_TOPIC
 from interllm.sim.kinematics import RobotKinematics
+from interllm.sim.measurements import MEASUREMENTS_FILE, MeasurementStore
 from interllm.sim.world import World
 from interllm.stages.inputs import PROBE_FILE, load_grids, load_scene_and_missions, scene_ids, stage_client
 from interllm.stages.provenance import for_run_log, provenance
@@ -68,14 +69,26 @@ class MissionWorker:
         check_name(mission_id, f"the mission id (in {self.scenes_dir / sid / 'missions.json'})")
         d = ensure_dir(child_path(self.out_dir, planner, sid, what="a planner or scene id"))
         meta = {"planner": planner, "scene": sid, "mission": mission_id, **self.prov}
-        if sid not in self._worlds:  # built once per scene: its IK models and path fields serve every run
-            self._worlds[sid] = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids)
+        if sid not in self._worlds:  # built once per scene: its IK models, path fields and measurements serve every run
+            self._worlds[sid] = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids,
+                                      measurements=load_measurements(self.scenes_dir, sid, self.cfg))
         world = self._worlds[sid]
         with McapRecorder(d / f"{mission_id}.mcap", scene, meta, grids=grids, robot=self.robot) as rec:
             hook = command_results_logger(rec)
             record = run_mission(planner, world, mission, cands[mission_id], self.client, self.cfg, recorder=rec,
                                  on_command_end=hook)
         write_json(d / f"{mission_id}.json", record.to_dict())
+
+
+def load_measurements(scenes_dir: Path, sid: str, cfg: ExperimentConfig) -> MeasurementStore:
+    """The manipulation measurements the scenes stage made on the scene's initial map
+    (``measurements.json``; an empty store when the file is absent, or was made with another
+    simulator config: ``sim.measurements``)."""
+    store = MeasurementStore(cfg.sim, cfg.scene.grid_resolution)
+    path = Path(scenes_dir) / sid / MEASUREMENTS_FILE
+    if path.is_file():
+        store.read(path)
+    return store
 
 
 def command_results_logger(recorder):

@@ -1,6 +1,7 @@
 """Stage scenes: scene graphs (generated or imported), occupancy grids, MuJoCo worlds, missions,
-the measured feasibility of the missions' commands and top-down pictures (objects the robot cannot
-pick up crossed out in red)."""
+the measured feasibility of the missions' commands, the manipulation measurements behind it (for the
+stages after: ``sim.measurements``) and top-down pictures (objects the robot cannot pick up crossed
+out in red)."""
 
 from __future__ import annotations
 
@@ -28,7 +29,8 @@ from interllm.scene.missions import draw_missions, save_missions, standable_star
 from interllm.scene.render import render_topdown
 from interllm.scene.validate import SceneValidationError, load_scene_file
 from interllm.sim.build import build_world_spec
-from interllm.stages.feasibility import feasibility_record, measure_scene
+from interllm.sim.measurements import MEASUREMENTS_FILE
+from interllm.stages.feasibility import SceneFeasibility, feasibility_record, measure_scene
 
 log = logging.getLogger(__name__)
 
@@ -112,11 +114,12 @@ def object_design(scene: SceneGraph) -> str:
     return scene.meta.get("object_design", "legacy") if scene.meta.get("generator") else "imported"
 
 
-def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid]) -> tuple[list, dict]:
+def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid],
+                   meas: SceneFeasibility | None = None) -> tuple[list, dict]:
     """The missions of a scene and its ``feasibility.json`` document: the simulator measures which
-    instances each command can get (``stages.feasibility``), the draw uses that with
-    mission.feasibility=measured (and records it either way)."""
-    meas = measure(cfg, scene, grids)
+    instances each command can get (``stages.feasibility``; ``meas`` when already measured), the draw
+    uses that with mission.feasibility=measured (and records it either way)."""
+    meas = meas if meas is not None else measure(cfg, scene, grids)
     drawn = draw_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
                           footprint_radius=cfg.sim.footprint_radius, fulfillable=meas.fulfillable())
     record = feasibility_record(meas, drawn, cfg.mission.feasibility, object_design(scene),
@@ -125,12 +128,12 @@ def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, Oc
 
 
 def benchmark_missions(cfg: ExperimentConfig, bench: Benchmark, scene: SceneGraph,
-                       grids: dict[str, OccupancyGrid]) -> tuple[list, dict]:
+                       grids: dict[str, OccupancyGrid], meas: SceneFeasibility | None = None) -> tuple[list, dict]:
     """The benchmark's frozen missions of a scene and its ``feasibility.json`` document: measured as
     ``scene_missions`` does, the frozen missions re-filled by that measurement (``recheck``), starts
     that the current robot cannot stand on moved (``moved_starts``), and a ``benchmark`` section
     naming what changed since freezing (one warning line per change)."""
-    meas = measure(cfg, scene, grids)
+    meas = meas if meas is not None else measure(cfg, scene, grids)
     frozen = bench.feasibility(scene.id)
     missions = bench.missions(scene.id)[:cfg.mission.n_missions]
     drawn, changes = recheck(missions, frozen, meas.fulfillable(), cfg.mission.objects_per_command,
@@ -191,9 +194,12 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
         atomic_write_bytes(d / "grid.npz", OccupancyGrid.pair_npz_bytes(presumed, true, cfg.sim.robot_radius))
         atomic_write_text(d / "scene.xml", build_world_spec(scene, robot=False, sim_cfg=cfg.sim).to_xml())
         grids = {"presumed": presumed, "true": true}
-        missions, record = benchmark_missions(cfg, bench, scene, grids) if bench else scene_missions(cfg, scene, grids)
+        meas = measure(cfg, scene, grids)
+        missions, record = benchmark_missions(cfg, bench, scene, grids, meas) if bench else \
+            scene_missions(cfg, scene, grids, meas)
         save_missions(d / "missions.json", missions)
         write_json(d / "feasibility.json", record)
+        meas.measurements.write(d / MEASUREMENTS_FILE)  # what the stages after need not measure again
         render_topdown(scene, d / "topdown.png", grid=presumed, markers=unpickable_markers(scene, record))
         ids.append(scene.id)
     return ids
