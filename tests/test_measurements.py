@@ -5,6 +5,7 @@ afresh."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 from pathlib import Path
@@ -32,8 +33,12 @@ def scenes(tmp_path_factory):
     return cfg, out, sid
 
 
+def _scene(cfg, out: Path, sid: str):
+    return load_scene_and_missions(out, sid, cfg)[0]
+
+
 def _world(cfg, out: Path, sid: str, store: MeasurementStore | None = None) -> World:
-    scene, _ = load_scene_and_missions(out, sid, cfg)
+    scene = _scene(cfg, out, sid)
     return World(scene, cfg.sim, cfg.scene.grid_resolution, grids=load_grids(out, sid, cfg), measurements=store)
 
 
@@ -65,7 +70,7 @@ def measured(monkeypatch):
 def test_the_scenes_stage_writes_what_it_measured(scenes):
     cfg, out, sid = scenes
     doc = json.loads((out / sid / MEASUREMENTS_FILE).read_text())
-    store = load_measurements(out, sid, cfg)
+    store = load_measurements(out, sid, cfg, _scene(cfg, out, sid))
     assert len(store) == len(doc["entries"]) > 20
     kinds = {e["action"].split("(")[0] for e in doc["entries"]}
     assert kinds == {"pickup", "place"}
@@ -73,7 +78,7 @@ def test_the_scenes_stage_writes_what_it_measured(scenes):
 
 def test_a_seeded_world_measures_nothing_again_and_gets_what_measuring_gives(scenes, measured):
     cfg, out, sid = scenes
-    store = load_measurements(out, sid, cfg)
+    store = load_measurements(out, sid, cfg, _scene(cfg, out, sid))
     acts = _actions(store, 12)
     assert len(acts) == 12
     seeded = _world(cfg, out, sid, store)
@@ -88,7 +93,7 @@ def test_a_measurement_is_kept_across_missions_but_not_across_map_changes(scenes
     cfg, out, sid = scenes
     _, missions = load_scene_and_missions(out, sid, cfg)
     world = _world(cfg, out, sid)  # an empty store
-    act = _actions(load_measurements(out, sid, cfg), 2)[0]
+    act = _actions(load_measurements(out, sid, cfg, world.initial_scene), 2)[0]
     world.reset(missions[0])
     first = world.measure_manipulation(act)
     world.reset(missions[1])
@@ -100,15 +105,25 @@ def test_a_measurement_is_kept_across_missions_but_not_across_map_changes(scenes
     assert world.measurements.get((str(act), world.manipulator.layout_key(world.scene, act.furniture))) is first
 
 
-def test_a_file_of_another_simulator_config_is_not_used(scenes, caplog):
+def test_a_file_made_for_another_simulator_config_or_scene_is_not_used(scenes, caplog):
     cfg, out, sid = scenes
+    scene = _scene(cfg, out, sid)
     other = ExperimentConfig()
     other.sim.n_l = cfg.sim.n_l + 1
-    store = MeasurementStore(other.sim, cfg.scene.grid_resolution)
-    with caplog.at_level(logging.WARNING):
-        assert store.read(out / sid / MEASUREMENTS_FILE) == 0
-    assert len(store) == 0 and "another simulator config" in caplog.text and MEASUREMENTS_FILE in caplog.text
-    assert store.get(next(iter(load_measurements(out, sid, cfg)._entries))) is MISSING
+    moved = scene.copy()
+    wall = next(iter(moved.walls))
+    moved.walls[wall] = dataclasses.replace(moved.walls[wall], thickness=moved.walls[wall].thickness + 0.01)
+    key = next(iter(load_measurements(out, sid, cfg, scene)._entries))
+    for store in (MeasurementStore(other.sim, cfg.scene.grid_resolution, scene),
+                  MeasurementStore(cfg.sim, cfg.scene.grid_resolution, moved)):
+        caplog.clear()
+        with caplog.at_level(logging.WARNING):
+            assert store.read(out / sid / MEASUREMENTS_FILE) == 0
+        assert len(store) == 0 and "another scene, simulator config" in caplog.text
+        assert MEASUREMENTS_FILE in caplog.text and store.get(key) is MISSING
+    with pytest.raises(ValueError, match="another scene, simulator config"):
+        World(scene, other.sim, cfg.scene.grid_resolution, grids=load_grids(out, sid, cfg),
+              measurements=load_measurements(out, sid, cfg, scene))
 
 
 def test_a_broken_file_names_the_file_the_entry_and_the_fix(scenes, tmp_path):
@@ -118,8 +133,8 @@ def test_a_broken_file_names_the_file_the_entry_and_the_fix(scenes, tmp_path):
     bad = tmp_path / MEASUREMENTS_FILE
     bad.write_text(json.dumps(doc))
     with pytest.raises(InputFileError, match=r"entries\[3\].*dvc repro scenes") as e:
-        MeasurementStore(cfg.sim, cfg.scene.grid_resolution).read(bad)
+        MeasurementStore(cfg.sim, cfg.scene.grid_resolution, _scene(cfg, out, sid)).read(bad)
     assert str(bad) in str(e.value)
     bad.write_text("[1, 2]")
     with pytest.raises(InputFileError, match="not a measurements document"):
-        MeasurementStore(cfg.sim, cfg.scene.grid_resolution).read(bad)
+        MeasurementStore(cfg.sim, cfg.scene.grid_resolution, _scene(cfg, out, sid)).read(bad)

@@ -9,11 +9,12 @@ within reach and the objects on them, with positions and sizes), on the robot's 
 are sampled on it), on the simulator's config and on nothing else: its pose sampling is seeded by
 the action (``base_poses.pose_sampling_seed``). So a measurement made on the initial map (belief
 version 0) can serve any later request of the same (action, layout) on the initial map, in any
-mission or stage. The scenes stage measured 1,369 of the 3,669 the default experiment's missions
-stage made, and earlier missions 757 more (``benchmarks/bench_measurements.py``).
+mission or stage. Of the 3,669 measurements the default experiment's missions stage makes without
+a store, 1,369 are ones the scenes stage made and 757 repeat an earlier mission's
+(``benchmarks/bench_measurements.py``).
 
-A store read from a file serves only a world of the same simulator config and grid resolution
-(``fingerprint``); a file of another config or format is skipped with a warning, never used.
+A store serves only a world of the same scene, simulator config and grid resolution
+(``fingerprint``); a file made for another is skipped with a warning, never used.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from typing import Any, Optional
 from interllm.config_sim import SimConfig
 from interllm.core.results import ActionResult
 from interllm.io import InputFileError, read_json, write_json
+from interllm.scene.graph import SceneGraph
 
 log = logging.getLogger(__name__)
 
@@ -38,11 +40,11 @@ MISSING = object()  # ``MeasurementStore.get``: nothing stored under the key
 Key = tuple  # (str(action), layout key): what ``World.measure_manipulation`` memoises under
 
 
-def fingerprint(sim: SimConfig, grid_resolution: float) -> str:
-    """sha256 of what a measurement depends on besides its key and the scene: the simulator's config
-    and the grid resolution [m] (the scene itself is the folder the file lies in)."""
-    text = json.dumps({"format": FORMAT, "sim": dataclasses.asdict(sim), "grid_resolution": float(grid_resolution)},
-                      sort_keys=True)
+def fingerprint(sim: SimConfig, grid_resolution: float, scene: SceneGraph) -> str:
+    """sha256 of what a measurement depends on besides its key: the simulator's config, the grid
+    resolution [m] and the scene as built (its graph: walls, doors and furniture the key leaves out)."""
+    text = json.dumps({"format": FORMAT, "sim": dataclasses.asdict(sim), "grid_resolution": float(grid_resolution),
+                       "scene": hashlib.sha256(scene.to_json().encode()).hexdigest()}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -50,8 +52,8 @@ class MeasurementStore:
     """Initial-map measurements by key (``Key``); a value is an :class:`ActionResult` or None (the
     action cannot be tried). Values are shared, not copied: readers only read them."""
 
-    def __init__(self, sim: SimConfig, grid_resolution: float) -> None:
-        self.fingerprint = fingerprint(sim, grid_resolution)
+    def __init__(self, sim: SimConfig, grid_resolution: float, scene: SceneGraph) -> None:
+        self.fingerprint = fingerprint(sim, grid_resolution, scene)
         self._entries: dict[Key, Optional[ActionResult]] = {}
 
     def __len__(self) -> int:
@@ -82,8 +84,8 @@ class MeasurementStore:
             raise InputFileError(path, "not a measurements document (an object with 'format', 'fingerprint' "
                                        "and an 'entries' list); rerun the scenes stage (dvc repro scenes)")
         if doc.get("format") != FORMAT or doc.get("fingerprint") != self.fingerprint:
-            log.warning("%s: made with another simulator config or file format, not used (measuring again); "
-                        "rerun the scenes stage (dvc repro scenes) to bring it up to date", path)
+            log.warning("%s: made for another scene, simulator config or file format, not used (measuring "
+                        "again); rerun the scenes stage (dvc repro scenes) to bring it up to date", path)
             return 0
         for i, e in enumerate(doc["entries"]):
             try:

@@ -60,7 +60,12 @@ class World:
         self.clock = 0.0
         self.log: list[ActionResult] = []
         self._measured: dict[tuple, Optional[ActionResult]] = {}  # this mission's, on any map
-        self.measurements = measurements if measurements is not None else MeasurementStore(self.cfg, self.resolution)
+        self.measurements = MeasurementStore(self.cfg, self.resolution, self.initial_scene)
+        if measurements is not None:
+            if measurements.fingerprint != self.measurements.fingerprint:
+                raise ValueError("World(measurements=...) got a store made for another scene, simulator config or "
+                                 "grid resolution; build it with this world's")
+            self.measurements = measurements
         self.physics.reset(self.scene, (0.0, 0.0, 0.0))
 
     @property

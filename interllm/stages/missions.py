@@ -29,6 +29,7 @@ from interllm.planners.runner import run_mission
 from interllm.progress import progress
 from interllm.record.recorder import McapRecorder
 from interllm.record.topics import COMMAND_RESULTS_TOPIC
+from interllm.scene.graph import SceneGraph
 from interllm.sim.kinematics import RobotKinematics
 from interllm.sim.measurements import MEASUREMENTS_FILE, MeasurementStore
 from interllm.sim.world import World
@@ -71,7 +72,7 @@ class MissionWorker:
         meta = {"planner": planner, "scene": sid, "mission": mission_id, **self.prov}
         if sid not in self._worlds:  # built once per scene: its IK models, path fields and measurements serve every run
             self._worlds[sid] = World(scene, self.cfg.sim, self.cfg.scene.grid_resolution, grids=grids,
-                                      measurements=load_measurements(self.scenes_dir, sid, self.cfg))
+                                      measurements=load_measurements(self.scenes_dir, sid, self.cfg, scene))
         world = self._worlds[sid]
         with McapRecorder(d / f"{mission_id}.mcap", scene, meta, grids=grids, robot=self.robot) as rec:
             hook = command_results_logger(rec)
@@ -80,11 +81,11 @@ class MissionWorker:
         write_json(d / f"{mission_id}.json", record.to_dict())
 
 
-def load_measurements(scenes_dir: Path, sid: str, cfg: ExperimentConfig) -> MeasurementStore:
-    """The manipulation measurements the scenes stage made on the scene's initial map
-    (``measurements.json``; an empty store when the file is absent, or was made with another
-    simulator config: ``sim.measurements``)."""
-    store = MeasurementStore(cfg.sim, cfg.scene.grid_resolution)
+def load_measurements(scenes_dir: Path, sid: str, cfg: ExperimentConfig, scene: SceneGraph) -> MeasurementStore:
+    """The manipulation measurements the scenes stage made on the initial map of ``scene`` (the
+    scene ``sid``; ``measurements.json``): an empty store when the file is absent, or was made for
+    another scene or simulator config (``sim.measurements``)."""
+    store = MeasurementStore(cfg.sim, cfg.scene.grid_resolution, scene)
     path = Path(scenes_dir) / sid / MEASUREMENTS_FILE
     if path.is_file():
         store.read(path)
