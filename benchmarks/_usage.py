@@ -23,4 +23,5 @@ def no_arguments(argv: Sequence[str], doc: str | None) -> None:
     overrides(argv, doc)
     if argv:
         script = sys.argv[0].rsplit("/", 1)[-1]
-        raise SystemExit(f"{script} takes no arguments, got {' '.join(argv)!r}; --help says what it measures")
+        print(f"{script} takes no arguments, got {' '.join(argv)!r}; --help says what it measures", file=sys.stderr)
+        raise SystemExit(2)

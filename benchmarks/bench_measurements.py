@@ -48,9 +48,9 @@ from pipeline._hydra import compose  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def counting(counts: collections.Counter):
+def counting(counts: collections.Counter, from_file: set):
     """Wrap ``Manipulator.measure`` and ``MeasurementStore.get`` to count measurements made, their
-    seconds, and the store's answers."""
+    seconds, and the store's answers (``from_file``: the keys the scenes stage wrote)."""
     measure, get = Manipulator.measure, measurements.MeasurementStore.get
 
     def timed_measure(self, *args, **kwargs):
@@ -63,16 +63,18 @@ def counting(counts: collections.Counter):
 
     def counted_get(self, key):
         got = get(self, key)
-        counts["served" if got is not measurements.MISSING else "missed"] += 1
+        if got is not measurements.MISSING:
+            counts["served"] += 1
+            counts["served from the scenes stage" if key in from_file else "served from earlier missions"] += 1
         return got
 
     Manipulator.measure, measurements.MeasurementStore.get = timed_measure, counted_get
     return measure, get
 
 
-def run(cfg, out: Path, reuse: bool) -> tuple[float, collections.Counter]:
+def run(cfg, out: Path, reuse: bool, from_file: set) -> tuple[float, collections.Counter]:
     counts: collections.Counter = collections.Counter()
-    measure, get = counting(counts)
+    measure, get = counting(counts, from_file)
     if not reuse:  # the alternative: the store never answers, so every mission measures again
         measurements.MeasurementStore.get = lambda self, key: measurements.MISSING
     try:
@@ -94,9 +96,11 @@ def main(argv: list[str]) -> None:
         run_scenes(cfg, out / "scenes")
         scenes_s = time.perf_counter() - t0
         files = sorted((out / "scenes").glob(f"*/{measurements.MEASUREMENTS_FILE}"))
-        n_file = sum(len(json.loads(p.read_text())["entries"]) for p in files)
+        from_file = {(e["action"], measurements._tuples(e["layout"]))
+                     for p in files for e in json.loads(p.read_text())["entries"]}
+        n_file = len(from_file)
         run_candidates(cfg, out / "scenes", out / "candidates")
-        results = {name: run(cfg, out, reuse) for name, reuse in (("reused", True), ("again", False))}
+        results = {name: run(cfg, out, reuse, from_file) for name, reuse in (("reused", True), ("again", False))}
         same = all((out / "runs_reused" / p.relative_to(out / "runs_again")).read_bytes() == p.read_bytes()
                    for p in sorted((out / "runs_again").rglob("m*.json")))
         n_records = len(list((out / "runs_again").rglob("m*.json")))
@@ -105,6 +109,9 @@ def main(argv: list[str]) -> None:
     print(f"{'missions stage':<16}{'wall [s]':>10}{'made':>8}{'their s':>10}{'served':>8}")
     for name, (wall, c) in results.items():
         print(f"{name:<16}{wall:>10.1f}{c['made']:>8}{c['seconds']:>10.1f}{c['served']:>8}")
+    served = results["reused"][1]
+    print(f"served by the reused run's store: {served['served from the scenes stage']} from the scenes stage, "
+          f"{served['served from earlier missions']} from earlier missions")
     ratio = results["reused"][0] / max(results["again"][0], 1e-9)
     print(f"reused / again: {ratio:.2f} of the wall time; "
           f"{results['reused'][1]['made'] / max(results['again'][1]['made'], 1):.2f} of the measurements")

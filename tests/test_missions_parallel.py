@@ -90,6 +90,11 @@ def test_the_runs_are_the_same_with_or_without_the_scenes_stage_measurements(inp
     from interllm.sim.measurements import MEASUREMENTS_FILE
 
     monkeypatch.setenv("INTERLLM_PROGRESS", "0")
+    from interllm.sim.manipulator import Manipulator
+
+    made: list[str] = []
+    real = Manipulator.measure
+    monkeypatch.setattr(Manipulator, "measure", lambda self, *a: made.append("m") or real(self, *a))
     root, cfg = inputs
     cfg.jobs = 1
     bare = tmp_path / "scenes"
@@ -97,8 +102,11 @@ def test_the_runs_are_the_same_with_or_without_the_scenes_stage_measurements(inp
     removed = [p.unlink() or p for p in bare.glob(f"*/{MEASUREMENTS_FILE}")]
     assert removed
     run_missions(cfg, root / "scenes", root / "candidates", tmp_path / "with")
+    with_file = len(made)
     run_missions(cfg, bare, root / "candidates", tmp_path / "without")
-    files = sorted(p.relative_to(tmp_path / "with") for p in (tmp_path / "with").rglob("m*.json"))
-    assert len(files) == len(cfg.planner.names)
+    assert 0 < with_file < len(made) - with_file  # the file was used (the benchmark's scenes fingerprint alike)
+    files = sorted(p.relative_to(tmp_path / "with") for p in (tmp_path / "with").rglob("m*.*")
+                   if p.suffix in (".json", ".mcap"))
+    assert len(files) == 2 * len(cfg.planner.names)
     for f in files:
         assert (tmp_path / "with" / f).read_bytes() == (tmp_path / "without" / f).read_bytes(), f

@@ -21,7 +21,7 @@ from interllm.scene.graph import Mission, SceneGraph
 from interllm.scene.grid import OccupancyGrid, rasterize
 from interllm.sim.belief import BeliefMap
 from interllm.sim.manipulator import Manipulator
-from interllm.sim.measurements import MISSING, MeasurementStore
+from interllm.sim.measurements import MISSING, MeasurementStore, differences
 from interllm.sim.navigator import Navigator
 from interllm.sim.physics import MujocoWorld
 
@@ -62,9 +62,9 @@ class World:
         self._measured: dict[tuple, Optional[ActionResult]] = {}  # this mission's, on any map
         self.measurements = MeasurementStore(self.cfg, self.resolution, self.initial_scene)
         if measurements is not None:
-            if measurements.fingerprint != self.measurements.fingerprint:
-                raise ValueError("World(measurements=...) got a store made for another scene, simulator config or "
-                                 "grid resolution; build it with this world's")
+            if diff := differences(self.measurements.made_with, measurements.made_with):
+                raise ValueError(f"World(measurements=...) got a store made with another scene, simulator config or "
+                                 f"code ({'; '.join(d[:200] for d in diff[:3])}); build it with this world's")
             self.measurements = measurements
         self.physics.reset(self.scene, (0.0, 0.0, 0.0))
 
@@ -107,17 +107,18 @@ class World:
         scene as it is now, with the robot at the furniture's anchor (where a navigate to it ends),
         the hand free for a pickup and holding the object for a place. A scratch measurement: the
         scene, state, clock, map and robot are untouched. None when the action cannot be tried
-        (``Manipulator.measure``). Memoised per action and layout of the furniture's surroundings
-        for the mission; on the initial map also in ``measurements``, across missions and stages."""
+        (``Manipulator.measure``). Memoised per action, layout of the furniture's surroundings and
+        map for the mission; on the initial map also in ``measurements``, across missions and stages."""
         if action.kind not in ("pickup", "place"):
             raise ValueError(f"measure_manipulation takes a pickup or place, got {action}")
         if action.furniture not in self.scene.furniture:
             return None
         exclude = (action.obj,) if action.kind == "place" else ()
         key = (str(action), self.manipulator.layout_key(self.scene, action.furniture, exclude))
-        if key not in self._measured:
-            self._measured[key] = self._measure(action, key)
-        return self._measured[key]
+        memo = (self.belief.version, key)  # a map a collision changed is measured on again
+        if memo not in self._measured:
+            self._measured[memo] = self._measure(action, key)
+        return self._measured[memo]
 
     def _measure(self, action: Action, key: tuple) -> Optional[ActionResult]:
         """The measurement of ``action``: from ``measurements`` on the initial map (belief version 0,
