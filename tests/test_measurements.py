@@ -45,7 +45,7 @@ def _world(cfg, out: Path, sid: str, store: MeasurementStore | None = None) -> W
 def _actions(store: MeasurementStore, n: int) -> list[Action]:
     """Up to ``n`` distinct actions stored with a result, pickups and places."""
     seen: dict[str, Action] = {}
-    for key in store._entries:
+    for key in store.keys():
         r = store.get(key)
         if r is not None and key[0] not in seen:
             seen[key[0]] = r.action
@@ -112,7 +112,7 @@ def test_a_file_made_for_another_simulator_config_or_scene_is_not_used(scenes, c
     moved = scene.copy()
     wall = next(iter(moved.walls))
     moved.walls[wall] = dataclasses.replace(moved.walls[wall], thickness=moved.walls[wall].thickness + 0.01)
-    key = next(iter(load_measurements(out, sid, cfg, scene)._entries))
+    key = next(iter(load_measurements(out, sid, cfg, scene).keys()))
     for store in (MeasurementStore(other.sim, cfg.scene.grid_resolution, scene),
                   MeasurementStore(cfg.sim, cfg.scene.grid_resolution, moved)):
         caplog.clear()

@@ -96,6 +96,10 @@ class MeasurementStore:
     def __len__(self) -> int:
         return len(self._entries)
 
+    def keys(self) -> list[Key]:
+        """The stored keys, in the order they were added."""
+        return list(self._entries)
+
     def get(self, key: Key) -> Any:
         """The stored measurement (an ActionResult or None), or ``MISSING``."""
         return self._entries.get(key, MISSING)
