@@ -10,24 +10,29 @@ A command's plan is an ordered list of deliveries of distinct objects, at most t
 it starts where the previous command's plan ended (the robot's start for the first command) and
 ends at its last target. ``cheapest_mission`` picks one plan per command, no object in two
 commands, with the most deliveries over the whole mission first and then the least summed cost.
-It is exact over the costs it is given, by dynamic programming over the commands:
+It is exact over the costs it is given:
 
-    best(i, loc, used) = the best over plans p of command i from loc that avoid ``used`` of
-                         (|p|, cost(p)) + best(i + 1, end(p), used ∪ objects(p))
+- Each command's plans come from a Held-Karp recursion, once per start location: for every (set
+  of objects delivered, last target), only the cheapest order is kept.
+- Without the rule "no object in two commands" the best mission plan is a dynamic programme over
+  (command, location): each command's best plan from where the last one ended.
+- With it, a best-first search over which objects are forbidden to which commands
+  (conflict-based search, as in multi-agent path finding; ``_MissionSearch``) solves that
+  programme per node and splits a node on the first object two commands' plans share.
 
-``used`` is kept only for the objects later commands can use. Commands that share no object
-therefore do not multiply the states. Each command's plans come from a Held-Karp recursion, once
-per start: for every (set of objects delivered, last target), only the cheapest order is kept. Of
-them, only the cheapest per outcome that matters to the rest (where it ends, the objects later
-commands lose, how many it delivers) is carried into the recursion.
+An earlier exact version kept, per command, the set of objects taken in its state; on 10-command
+missions whose commands share categories that state space did not fit in 10 minutes, while the
+search takes seconds (``benchmarks/bench_mission_assignment.py``).
 ``cheapest_assignment`` is the one-command case.
 """
 
 from __future__ import annotations
 
+import heapq
+import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 NavCost = Callable[[str, str], float]  # (from location, to furniture) -> cost; math.inf: no path
 
@@ -56,7 +61,7 @@ class MissionPlan:
     cost: float  # [cost units] summed over the mission
 
 
-Best = tuple[int, float, tuple]  # (deliveries, cost, per-command plans)
+Score = tuple[int, float]  # (slots missed, cost [cost units]): the less, the better, in that order
 Plan = tuple[frozenset[str], float, tuple[Delivery, ...]]  # one command's (objects, cost, deliveries)
 
 
@@ -66,36 +71,11 @@ def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost)
     start: the robot's location key for ``nav`` (e.g. "@robot" or a furniture id).
     nav(a, b): navigation cost from location a to furniture b (math.inf when there is no path).
     """
-    by_obj = [_options_by_object(c.options) for c in commands]
-    later: list[frozenset[str]] = [frozenset()] * (len(commands) + 1)
-    for i in range(len(commands) - 1, -1, -1):  # objects command i or a later one can use
-        later[i] = later[i + 1] | frozenset(by_obj[i])
-    memo: dict[tuple[int, str, frozenset[str]], Best] = {}
-    plans: dict[tuple[int, str], list[Plan]] = {}
-
-    def best(i: int, loc: str, used: frozenset[str]) -> Best:
-        if i == len(commands):
-            return 0, 0.0, ()
-        key = (i, loc, used)
-        if key not in memo:
-            if (i, loc) not in plans:  # independent of ``used``: filtered below
-                plans[(i, loc)] = _command_plans(loc, by_obj[i], commands[i].n, nav)
-                if i == len(commands) - 1:  # the last: only its own (deliveries, cost) matter
-                    plans[(i, loc)].sort(key=lambda p: (-len(p[2]), p[1]))
-            if i == len(commands) - 1:
-                _, cost, seq = next(p for p in plans[(i, loc)] if not p[0] & used)  # the empty plan at worst
-                memo[key] = (len(seq), cost, (seq,))
-                return memo[key]
-            found: Best = (-1, math.inf, ())
-            for (end, nxt, _), (cost, seq) in _cheapest_per_outcome(plans[(i, loc)], loc, used, later[i + 1]).items():
-                rest = best(i + 1, end, nxt)
-                cand = (len(seq) + rest[0], cost + rest[1], (seq,) + rest[2])
-                if cand[0] > found[0] or (cand[0] == found[0] and cand[1] < found[1]):
-                    found = cand
-            memo[key] = found
-        return memo[key]
-
-    n_done, total, plans = best(0, start, frozenset())
+    plans, costs = _MissionSearch(start, commands, nav).run()
+    total = 0.0
+    for cost in reversed(costs):  # summed from the last command: cost + rest
+        total = cost + total
+    n_done = sum(len(p) for p in plans)
     return MissionPlan(plans, n_done, total if n_done else 0.0)
 
 
@@ -106,6 +86,115 @@ def cheapest_assignment(start: str, deliveries: Sequence[Delivery], n: int, nav:
     return list(plan.plans[0]), plan.cost
 
 
+class _MissionSearch:
+    """Best-first search over object restrictions for ``cheapest_mission`` (conflict-based search,
+    as in multi-agent path finding). A node forbids some objects to some commands. Its relaxed
+    plan is the best plan of every command in turn, each from where the last one ended, that
+    avoids the node's forbidden objects but may take an object another command takes: dynamic
+    programming over (command, location), exact and cheap. A relaxed plan in which no object serves
+    two commands is a mission plan. Otherwise an object o serves commands a < b, and every mission
+    plan leaves o to at most one of them: the node has two children, one forbidding o to a, one
+    to b. Nodes are expanded in order of their relaxed (slots missed, cost), which never falls
+    from a node to its children, so the first node whose relaxed plan is a mission plan is the
+    best mission plan."""
+
+    def __init__(self, start: str, commands: Sequence[CommandSlots], nav: NavCost) -> None:
+        self.start, self.commands, self.nav = start, commands, nav
+        self.by_obj = [_options_by_object(c.options) for c in commands]
+        self._ranked: dict[tuple[int, str], list[tuple[str, list[tuple[Score, Plan]]]]] = {}
+
+    def ranked(self, i: int, loc: str) -> list[tuple[str, list[tuple[Score, Plan]]]]:
+        """Command i's plans from ``loc`` (``_command_plans``) grouped by where they end, each group
+        best first by (slots missed, cost)."""
+        if (i, loc) not in self._ranked:
+            n, per_end = self.commands[i].n, {}
+            for plan in _command_plans(loc, self.by_obj[i], n, self.nav):
+                end = plan[2][-1].target if plan[2] else loc
+                per_end.setdefault(end, []).append(((n - len(plan[2]), plan[1]), plan))
+            for group in per_end.values():
+                group.sort(key=lambda entry: entry[0])  # stable: equal scores keep the search's order
+            self._ranked[(i, loc)] = list(per_end.items())
+        return self._ranked[(i, loc)]
+
+    def relaxed(self, node: _Node, i: int, loc: str) -> Score:
+        """(slots missed, cost) of the best plans of commands i, i+1, ... from ``loc`` that avoid
+        the node's forbidden objects; the plan chosen for (i, loc) is kept in ``node.chosen``."""
+        if i == len(self.commands):
+            return 0, 0.0
+        if (i, loc) not in node.chosen:
+            forbidden = node.forbidden.get(i, frozenset())
+            best: tuple[Score, Plan] | None = None
+            for end, group in self.ranked(i, loc):
+                allowed = next((e for e in group if not e[1][0] & forbidden), None)  # ends at loc: the empty plan
+                if allowed is None:
+                    continue
+                score, plan = allowed
+                rest = self.relaxed(node, i + 1, end)
+                total = (score[0] + rest[0], score[1] + rest[1])
+                if best is None or total < best[0]:
+                    best = (total, plan)
+            node.chosen[(i, loc)] = best  # type: ignore[assignment]
+        return node.chosen[(i, loc)][0]
+
+    def plans_of(self, node: _Node) -> list[Plan]:
+        """The node's relaxed plan, per command."""
+        out, loc = [], self.start
+        for i in range(len(self.commands)):
+            plan = node.chosen[(i, loc)][1]
+            out.append(plan)
+            loc = plan[2][-1].target if plan[2] else loc
+        return out
+
+    def run(self) -> tuple[tuple[tuple[Delivery, ...], ...], list[float]]:
+        """(per command, its ordered deliveries), (per command, their cost) of the best mission plan."""
+        root = _Node({})
+        order = itertools.count(1)  # ties: the node made first
+        heap: list[tuple[Score, int, _Node]] = [(self.relaxed(root, 0, self.start), 0, root)]
+        seen = {root.key()}
+        while heap:
+            node = heapq.heappop(heap)[2]
+            plans = self.plans_of(node)
+            conflict = _first_conflict(plans)
+            if conflict is None:
+                return tuple(p[2] for p in plans), [p[1] for p in plans]
+            obj, commands = conflict
+            for i in commands:
+                child = node.forbidding(i, obj)
+                if child.key() not in seen:
+                    seen.add(child.key())
+                    heapq.heappush(heap, (self.relaxed(child, 0, self.start), next(order), child))
+        raise AssertionError("unreachable: forbidding every object leaves the empty plans, a mission plan")
+
+
+@dataclass
+class _Node:
+    """A node of ``_MissionSearch``: the objects forbidden per command, and its relaxed plan's
+    choices by (command, location)."""
+
+    forbidden: dict[int, frozenset[str]]
+    chosen: dict[tuple[int, str], tuple[Score, Plan]] = field(default_factory=dict)
+
+    def key(self) -> frozenset[tuple[int, str]]:
+        return frozenset((i, o) for i, objs in self.forbidden.items() for o in objs)
+
+    def forbidding(self, i: int, obj: str) -> _Node:
+        """A child that also forbids ``obj`` to command i: the choices of later commands carry over."""
+        forbidden = dict(self.forbidden)
+        forbidden[i] = forbidden.get(i, frozenset()) | {obj}
+        return _Node(forbidden, {k: v for k, v in self.chosen.items() if k[0] > i})
+
+
+def _first_conflict(plans: list[Plan]) -> tuple[str, tuple[int, int]] | None:
+    """(an object, the first two commands whose plans both take it), or None when none does."""
+    first: dict[str, int] = {}
+    for i, (objs, _, _) in enumerate(plans):
+        for o in sorted(objs):
+            if o in first:
+                return o, (first[o], i)
+            first[o] = i
+    return None
+
+
 def _options_by_object(options: Sequence[Delivery]) -> dict[str, tuple[Delivery, ...]]:
     out: dict[str, list[Delivery]] = {}
     for d in sorted(options, key=lambda d: (d.obj, d.target)):
@@ -114,20 +203,6 @@ def _options_by_object(options: Sequence[Delivery]) -> dict[str, tuple[Delivery,
                              "an object's deliveries start where it stands, one source")
         out.setdefault(d.obj, []).append(d)
     return {o: tuple(ds) for o, ds in out.items()}
-
-
-def _cheapest_per_outcome(plans: list[Plan], loc: str, used: frozenset[str], later: frozenset[str]
-                          ) -> dict[tuple[str, frozenset[str], int], tuple[float, tuple[Delivery, ...]]]:
-    """The plans that avoid ``used``, the cheapest per outcome that matters to the rest of the
-    mission: (where it ends, the objects later commands can no longer take, deliveries)."""
-    out: dict[tuple[str, frozenset[str], int], tuple[float, tuple[Delivery, ...]]] = {}
-    for objs, cost, seq in plans:
-        if objs & used:
-            continue
-        key = (seq[-1].target if seq else loc, (used | objs) & later, len(seq))
-        if key not in out or cost < out[key][0]:
-            out[key] = (cost, seq)
-    return out
 
 
 def _command_plans(loc: str, by_obj: dict[str, tuple[Delivery, ...]], n: int, nav: NavCost) -> list[Plan]:
