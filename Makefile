@@ -115,7 +115,7 @@ mechanism: install
 	$(PY) -m interllm.cli results diff --file data/mechanism/*/metrics/metrics.json
 
 # Every committed result re-made by one command, each compared with its committed version: the
-# default experiment, the sweeps and the mechanism runs (about 65 min on 2 cores, committed cache).
+# default experiment, the sweeps and the mechanism runs (about 1.5 h on 2 cores, committed cache).
 results: repro sweeps mechanism
 
 # The sweeps: each experiment of SWEEPS runs the grid its conf/experiment/<name>.yaml declares
