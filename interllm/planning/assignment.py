@@ -15,14 +15,17 @@ It is exact over the costs it is given:
 - Each command's plans come from a Held-Karp recursion, once per start location: for every (set
   of objects delivered, last target), only the cheapest order is kept.
 - Without the rule "no object in two commands" the best mission plan is a dynamic programme over
-  (command, location): each command's best plan from where the last one ended.
+  (command, location): the best combination of plans, each command starting where the previous
+  one ended.
 - With it, a best-first search over which objects are forbidden to which commands
   (conflict-based search, as in multi-agent path finding; ``_MissionSearch``) solves that
   programme per node and splits a node on the first object two commands' plans share.
 
 An earlier exact version kept, per command, the set of objects taken in its state; on 10-command
-missions whose commands share categories that state space did not fit in 10 minutes, while the
-search takes seconds (``benchmarks/bench_mission_assignment.py``).
+missions whose commands share categories that state space grew past 60 CPU seconds from five
+commands on (a mechanism mission's run stopped after 10.5 min), while the search takes seconds
+(``benchmarks/bench_mission_assignment.py``). On exact ties the two may pick different plans of
+equal deliveries and cost.
 ``cheapest_assignment`` is the one-command case.
 """
 
@@ -89,17 +92,17 @@ def cheapest_assignment(start: str, deliveries: Sequence[Delivery], n: int, nav:
 class _MissionSearch:
     """Best-first search over object restrictions for ``cheapest_mission`` (conflict-based search,
     as in multi-agent path finding). A node forbids some objects to some commands. Its relaxed
-    plan is the best plan of every command in turn, each from where the last one ended, that
-    avoids the node's forbidden objects but may take an object another command takes: dynamic
-    programming over (command, location), exact and cheap. A relaxed plan in which no object serves
+    plan is the best combination of plans, each command starting where the previous one ended,
+    that avoids the node's forbidden objects but may take an object another command takes:
+    dynamic programming over (command, location), exact and cheap. A relaxed plan in which no object serves
     two commands is a mission plan. Otherwise an object o serves several commands, and every
     mission plan leaves o to at most one of them: the node has a child per such command, in which
     o may serve that command and is forbidden to the others. Nodes are expanded in order of their
     relaxed (slots missed, cost), which never falls from a node to its children, so the first node
     whose relaxed plan is a mission plan is the best mission plan. Where objects are scarce (more
     commands want them than there are), the relaxed plan misses fewer slots than any mission plan
-    and the search examines many nodes: about 1,000 for five commands competing for four objects
-    (tests); the first search of a mechanism mission, 9."""
+    and the search examines many nodes: a few hundred, up to about 1,000, for five commands
+    competing for four objects (tests); the first search of a mechanism mission, 9 to 14."""
 
     def __init__(self, start: str, commands: Sequence[CommandSlots], nav: NavCost) -> None:
         self.start, self.commands, self.nav = start, commands, nav
@@ -128,7 +131,7 @@ class _MissionSearch:
             forbidden = node.forbidden.get(i, frozenset())
             best: tuple[Score, Plan] | None = None
             for end, group in self.ranked(i, loc):
-                allowed = next((e for e in group if not e[1][0] & forbidden), None)  # ends at loc: the empty plan
+                allowed = next((e for e in group if not e[1][0] & forbidden), None)  # the group ending at loc has the empty plan
                 if allowed is None:
                     continue
                 score, plan = allowed
@@ -189,8 +192,8 @@ class _Node:
 
 
 def _first_conflict(plans: list[Plan]) -> tuple[str, list[int]] | None:
-    """(the first object two commands' plans take, every command whose plan takes it), or None
-    when no object serves two commands."""
+    """(an object two commands' plans take, every command whose plan takes it), or None when no
+    object serves two commands. The object is the one whose second taker comes first, then by name."""
     takers: dict[str, list[int]] = {}
     for i, (objs, _, _) in enumerate(plans):
         for o in objs:
@@ -230,6 +233,8 @@ def _command_plans(loc: str, by_obj: dict[str, tuple[Delivery, ...]], n: int, na
                     key = (with_o, d.target)
                     if c < math.inf and (key not in grown or c < grown[key][0]):
                         grown[key] = (c, seq + (d,))
+        if not grown:  # no object left to add
+            break
         found += [(objs, cost, seq) for (objs, _end), (cost, seq) in grown.items()]
         layer = grown
     return found
