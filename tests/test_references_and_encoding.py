@@ -43,6 +43,14 @@ def _line_nav(pos: dict):
     return lambda a, b: 0.0 if a == b else abs(pos[a] - pos[b])
 
 
+def _random_line_nav(rng, n_furniture: int):
+    """Navigation along a line of ``n_furniture`` furniture f0, f1, ... and the start "@s", each
+    at a random position in [0, 20]."""
+    pos = {f"f{i}": float(rng.uniform(0, 20)) for i in range(n_furniture)}
+    pos["@s"] = float(rng.uniform(0, 20))
+    return _line_nav(pos)
+
+
 def _brute(start, deliveries, n, nav):
     """The least cost among the ordered plans with the most deliveries, by enumerating them all."""
     plans = list(_command_plans_brute(start, deliveries, n, set(), nav))
@@ -106,9 +114,7 @@ def test_the_mission_assignment_is_the_exhaustive_optimum_over_all_commands_at_o
     rng = np.random.default_rng(1)
     shared_objects = 0
     for _ in range(40):
-        pos = {f"f{i}": float(rng.uniform(0, 20)) for i in range(7)}
-        pos["@s"] = float(rng.uniform(0, 20))
-        nav = _line_nav(pos)
+        nav = _random_line_nav(rng, 7)
         pool = [(f"o{i}", f"f{int(rng.integers(4))}") for i in range(5)]
         commands = []
         for targets in (("f4",), ("f5", "f6"), ("f4", "f6")):
@@ -133,9 +139,7 @@ def test_the_mission_assignment_is_exact_where_many_commands_compete_for_the_sam
     rng = np.random.default_rng(2)
     deepest = 0
     for _ in range(12):
-        pos = {f"f{i}": float(rng.uniform(0, 20)) for i in range(6)}
-        pos["@s"] = float(rng.uniform(0, 20))
-        nav = _line_nav(pos)
+        nav = _random_line_nav(rng, 6)
         pool = [(f"o{i}", f"f{i}") for i in range(4)]
         commands = []
         for c in range(5):
