@@ -192,3 +192,21 @@ def test_one_sequence_fallback_scores_like_the_batched_path(backend, monkeypatch
         assert fallback.score(prompt, conts, "Useful item:").raw == one.raw
     finally:
         fallback.close()
+
+
+@pytest.mark.parametrize("rows", [1, 15, 16, 17, 40])
+def test_log_softmax_blocks_give_the_whole_array_formula_bit_for_bit(rows):
+    """The blocked log-softmax (a reused scratch per thread) equals the one-expression formula on
+    the whole [rows, vocab] array in every bit, across block boundaries and for extreme logits."""
+    from interllm.llm.embedded import SOFTMAX_ROWS, _log_softmax_at
+
+    rng = np.random.default_rng(rows)
+    logits = (rng.standard_normal((rows, 262_144)) * rng.uniform(0.5, 30.0, (rows, 1))).astype(np.float32)
+    logits[0, :4] = [88.0, -88.0, 1e-30, 0.0]
+    tokens = rng.integers(0, logits.shape[1], rows)
+    m = logits.max(axis=1, keepdims=True)
+    whole = (logits[np.arange(rows), tokens].astype(np.float64)
+             - (np.log(np.exp(logits - m).sum(axis=1, dtype=np.float64)) + m[:, 0].astype(np.float64)))
+    blocked = _log_softmax_at(logits, tokens)
+    assert blocked.dtype == np.float64 and blocked.view(np.int64).tolist() == whole.view(np.int64).tolist()
+    assert SOFTMAX_ROWS < 17  # the cases above cross a block boundary

@@ -102,10 +102,35 @@ def _lcp(a: Sequence[int], b: Sequence[int]) -> int:
     return n
 
 
+SOFTMAX_ROWS = 16  # logits rows per block of the log-softmax (its scratch: 16 x vocab float32, 17 MB)
+_scratch = threading.local()  # each thread's block scratch, allocated once
+
+
+def _block_scratch(vocab: int) -> np.ndarray:
+    """This thread's [SOFTMAX_ROWS, vocab] float32 scratch (reused: no page faults per call)."""
+    buf = getattr(_scratch, "buf", None)
+    if buf is None or buf.shape[1] != vocab:
+        buf = _scratch.buf = np.empty((SOFTMAX_ROWS, vocab), dtype=np.float32)
+    return buf
+
+
 def _log_softmax_at(logits: np.ndarray, tokens: Sequence[int]) -> np.ndarray:
-    """log p(tokens[i]) under the softmax of row i of ``logits`` [rows, vocab] (float64 sums)."""
-    m = logits.max(axis=1, keepdims=True)
-    lse = np.log(np.exp(logits - m).sum(axis=1, dtype=np.float64)) + m[:, 0].astype(np.float64)
+    """log p(tokens[i]) [nats] under the softmax of row i of ``logits`` [rows, vocab] (float64 sums).
+
+    Bit for bit ``logits[i, t_i] - (log(sum(exp(logits - max))) + max)`` computed on the whole
+    array at once; blocks of rows in a reused scratch only spare the two [rows, vocab] temporaries,
+    whose page faults cost more than the arithmetic (``tests/test_llm_embedded.py`` checks the
+    identity)."""
+    rows, vocab = logits.shape
+    buf = _block_scratch(vocab)
+    lse = np.empty(rows, dtype=np.float64)
+    for start in range(0, rows, SOFTMAX_ROWS):
+        block = logits[start:start + SOFTMAX_ROWS]
+        m = block.max(axis=1, keepdims=True)
+        shifted = buf[:len(block)]
+        np.subtract(block, m, out=shifted)
+        np.exp(shifted, out=shifted)
+        lse[start:start + len(block)] = np.log(shifted.sum(axis=1, dtype=np.float64)) + m[:, 0].astype(np.float64)
     return logits[np.arange(len(tokens)), np.asarray(tokens)].astype(np.float64) - lse
 
 
@@ -257,7 +282,7 @@ class EmbeddedBackend:
         while pos < len(want):
             self._check_deadline()
             end = min(len(want), (pos // CHUNK + 1) * CHUNK)
-            llm.eval(want[pos:end])
+            llama_internals.eval_prompt(llm, want[pos:end])
             pos = end
             self._aligned = (pos // CHUNK) * CHUNK
         self._aligned = (len(want) // CHUNK) * CHUNK

@@ -199,6 +199,26 @@ def truncate(llm: Any, keep: int) -> None:
     llm.n_tokens = keep
 
 
+def eval_prompt(llm: Any, tokens: Sequence[int]) -> None:
+    """Append ``tokens`` (at most ``n_batch``) to the context's sequence 0 in one decode that
+    computes no logits row. ``Llama.eval`` asks for the last token's row, a vocabulary-wide
+    matrix-vector product (262,144 x 640 for Gemma 3 270M) that scoring never reads; the KV cells
+    are the same either way (every layer's keys and values are computed for all tokens)."""
+    if not 0 < len(tokens) <= llm.n_batch:
+        raise ValueError(f"eval_prompt takes 1 to n_batch={llm.n_batch} tokens, got {len(tokens)}")
+    n_past = llm.n_tokens
+    b = llm._batch.batch
+    b.n_tokens = 0
+    for i, tok in enumerate(tokens):
+        b.token[i], b.pos[i], b.n_seq_id[i], b.logits[i] = tok, n_past + i, 1, False
+        b.seq_id[i][0] = 0
+        b.n_tokens += 1
+    if _bindings().llama_decode(llm._ctx.ctx, b) != 0:
+        raise RuntimeError(f"llama_decode failed on {len(tokens)} prompt tokens at position {n_past}")
+    llm.input_ids[n_past:n_past + len(tokens)] = tokens
+    llm.n_tokens = n_past + len(tokens)
+
+
 def decode_after_prompt(llm: Any, seqs: Sequence[Sequence[int]], read_logits: Callable[[np.ndarray], T], *,
                         multi_sequence: bool) -> T:
     """Decode ``seqs`` (token lists, each at the positions right after the prompt the context holds)
