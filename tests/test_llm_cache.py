@@ -248,3 +248,16 @@ def test_prune_keeps_exactly_the_entries_the_call_logs_name(tmp_path, monkeypatc
     assert sorted(p.stem[0] for p in (tmp_path / "cache").glob("*/*.json")) == ["a", "c"]
     assert main(["cache", "prune", "--dir", "cache", "--keep", "nothing/*.jsonl", "--delete"]) == 2  # keeps all
     assert len(list((tmp_path / "cache").glob("*/*.json"))) == 2
+
+
+def test_every_answer_the_tests_replay_is_committed():
+    """tests/replayed_llm_calls.jsonl lists the committed cache entries the test suite reads (made
+    with tests/helpers/cache_reads); `interllm cache prune` keeps them only if the list is complete
+    and each listed entry is still in data/llm_cache."""
+    from interllm.llm.cache import keys_in_call_logs
+
+    root = Path(__file__).resolve().parent.parent
+    listed = keys_in_call_logs([root / "tests" / "replayed_llm_calls.jsonl"])
+    assert len(listed) > 100  # the quick experiment, the ProcTHOR house, the default run's replays
+    missing = sorted(k for k in listed if not (root / "data" / "llm_cache" / k[:2] / f"{k}.json").is_file())
+    assert not missing, f"{len(missing)} listed entries are not in data/llm_cache, e.g. {missing[:3]}"
