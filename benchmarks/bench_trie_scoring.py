@@ -13,7 +13,8 @@ log-probs from its prefixes' rows. Both run on the same prompt cells and the sam
 (``score_groups``). Requests are score requests of a cache folder (every one the default run made
 is in the committed ``data/llm_cache``), shuffled with a fixed seed. Printed: the seconds of
 continuation decoding each way, rows decoded, the scores that differ and by how much, and the
-requests whose best continuation changes.
+requests whose best continuation changes; and how far each way is from scoring every continuation
+alone (a group of one, the layout with nothing beside it).
 """
 
 from __future__ import annotations
@@ -94,8 +95,9 @@ def both(be: EmbeddedBackend, trie: TrieScorer, prompt: str, texts: list[str]) -
     t1 = time.perf_counter()
     got = [trie.group(toks[-1], conts, g) for g in groups]
     t2 = time.perf_counter()
-    return {"seq": seq, "trie": [s for g, _ in got for s in g], "t_seq": t1 - t0, "t_trie": t2 - t1,
-            "rows_seq": sum(len(c) for c in conts), "rows_trie": sum(n for _, n in got)}
+    alone = [be._score_group(toks[-1], conts, range(k, k + 1))[0] for k in range(len(conts))]
+    return {"seq": seq, "trie": [s for g, _ in got for s in g], "alone": alone, "t_seq": t1 - t0,
+            "t_trie": t2 - t1, "rows_seq": sum(len(c) for c in conts), "rows_trie": sum(n for _, n in got)}
 
 
 def main() -> None:
@@ -114,6 +116,8 @@ def main() -> None:
     tot = {"t_seq": 0.0, "t_trie": 0.0, "rows_seq": 0, "rows_trie": 0}
     n = scores = differ = flips = 0
     worst = 0.0
+    from_alone = {"seq": [], "trie": []}  # |score - the continuation scored alone| [nats]
+    best_as_alone = {"seq": 0, "trie": 0}  # requests whose best continuation is the one alone picks
     for f in files:
         request = json.loads(f.read_text()).get("request") or {}
         if "continuations" not in request:
@@ -124,6 +128,9 @@ def main() -> None:
         d = [abs(a - b) for a, b in zip(r["seq"], r["trie"], strict=True)]
         scores, differ, worst = scores + len(d), differ + sum(x > 0 for x in d), max([worst, *d])
         flips += int(np.argmax(r["seq"]) != np.argmax(r["trie"]))
+        for way in from_alone:
+            from_alone[way] += [abs(a - b) for a, b in zip(r[way], r["alone"], strict=True)]
+            best_as_alone[way] += int(np.argmax(r[way]) == np.argmax(r["alone"]))
         n += 1
         if n >= args.requests:
             break
@@ -135,6 +142,11 @@ def main() -> None:
           f"{tot['rows_trie'] / max(tot['rows_seq'], 1):.2f} of the rows")
     print(f"scores that differ: {differ} of {scores}, by up to {worst:.3g} nats; "
           f"requests whose best continuation changes: {flips} of {n}")
+    print("against scoring each continuation alone (a group of one):")
+    for way, label in (("seq", "one sequence each (now)"), ("trie", "prefix trie")):
+        d = np.asarray(from_alone[way])
+        print(f"  {label:<24} mean |diff| {d.mean():.4f} nats, max {d.max():.3f}; "
+              f"same best continuation in {best_as_alone[way]} of {n} requests")
 
 
 if __name__ == "__main__":
