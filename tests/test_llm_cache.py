@@ -170,12 +170,19 @@ def test_corrupt_entry_is_a_reported_miss_then_overwritten(tmp_path, caplog, dam
 
 
 WRITER = """
-import sys
+import os, sys, time
 from interllm.config import LLMConfig
 from interllm.llm import LLMOptions, LLMRequest, Message, make_client
 from interllm.llm.testing import DeterministicBackend
-c = make_client(LLMConfig(cache_dir=sys.argv[1]), backend=DeterministicBackend())
-for i in range(int(sys.argv[2]), int(sys.argv[3])):
+cache, a, b, ready, go = sys.argv[1:]
+c = make_client(LLMConfig(cache_dir=cache), backend=DeterministicBackend())
+open(ready, "w").close()  # set up; both writers start writing together, when the test says go
+deadline = time.monotonic() + 120
+while not os.path.exists(go):
+    if time.monotonic() > deadline:
+        sys.exit("writer: no go within 120 s")
+    time.sleep(0.001)
+for i in range(int(a), int(b)):
     c.complete(LLMRequest(purpose="w", messages=(Message("user", f"q{i}"),),
                           schema={"type": "object", "properties": {"n": {"type": "integer"}}, "required": ["n"]},
                           options=LLMOptions(sample_index=i % 3)))
@@ -184,11 +191,26 @@ print(c.stats.cache_hits)
 
 
 def test_concurrent_writers_lose_nothing(tmp_path):
-    # process 0 writes q0..q59, process 1 q30..q89: 30 shared keys written by both at once
-    procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path / "cache"), str(a), str(b)], cwd=REPO,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-             for a, b in ((0, 60), (30, 90))]
-    outs = [p.communicate(timeout=120) for p in procs]
+    from helpers.waits import assert_running, wait_until
+
+    # process 0 writes q0..q59, process 1 q30..q89: 30 shared keys written by both at once (both set up
+    # first, then started together: a writer's start-up does not decide whether they overlap)
+    ready, go = [tmp_path / "ready0", tmp_path / "ready1"], tmp_path / "go"
+    procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path / "cache"), str(a), str(b), str(r), str(go)],
+                              cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for (a, b), r in zip(((0, 60), (30, 90)), ready, strict=True)]
+    try:
+        wait_until(lambda: all(r.exists() for r in ready), timeout=120, what="both cache writers set up",
+                   gone=lambda: any(p.poll() is not None for p in procs))
+        for p in procs:
+            assert_running(p, "a cache writer waiting for the go")
+        go.touch()
+        outs = [p.communicate(timeout=120) for p in procs]
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait(timeout=30)
     assert all(p.returncode == 0 for p in procs), outs
     cache = ResponseCache(tmp_path / "cache")
     entries = list((tmp_path / "cache").glob("??/*.json"))

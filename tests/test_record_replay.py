@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 from helpers.recording import make_actions, rerun_cli, run_cli, write_run
+from helpers.waits import Output, assert_running
 
 from interllm.record import read_run, replay, replay_main
 
@@ -65,20 +66,22 @@ def test_folder_replay_default_saves_next_to_each_run(tmp_path, capsys):
 def test_sigkill_mid_run_leaves_readable_prefix_and_replay_says_where(tmp_path):
     out = tmp_path / "killed.mcap"
     env = {**os.environ, "PYTHONPATH": f"{REPO}{os.pathsep}{REPO / 'tests'}"}
+    # the writer flushes 4 actions, says WAITING and blocks on stdin (which the test holds open): the
+    # kill lands mid-run at that known point, however slow the machine
     proc = subprocess.Popen([sys.executable, str(REPO / "tests" / "helpers" / "recording.py"), str(out), "9", "4"],
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    output = Output(proc)
     try:
-        lines = []
-        for line in proc.stdout:
-            lines.append(line.strip())
-            if line.strip() == "WAITING":
-                break
-        assert lines[-1] == "WAITING", lines
+        output.wait_for_line("stdout", "WAITING", timeout=120, what="the writer flushing 4 actions and holding")
+        assert output.text("stdout").split() == ["ACTION", "0", "ACTION", "1", "ACTION", "2", "ACTION", "3",
+                                                 "WAITING"]
+        assert_running(proc, "the writer held mid-run", output)
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=30)
     finally:
         if proc.poll() is None:
             proc.kill()
+            proc.wait(timeout=30)
     assert proc.returncode == -signal.SIGKILL
     partial = out.with_name(out.name + ".partial")
     assert partial.exists() and not out.exists()

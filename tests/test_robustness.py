@@ -128,6 +128,9 @@ def test_stages_run_with_the_project_interpreter_whatever_path_says(tmp_path):
 
 
 # -- killed runs leave nothing running -----------------------------------------------------------
+# The workers are held at the start of a run (tests/helpers/held_runs.py, imported as planner.modules),
+# its run log open, each after writing a marker file: the test kills the stage when both are up and
+# writing, and cannot come too late on a slow machine (the runs would be over) or too early.
 KILL_SCRIPT = """
 import sys
 from interllm.config import from_dict
@@ -136,6 +139,7 @@ from interllm.stages.missions import run_missions
 from interllm.stages.scenes import run_scenes
 root = sys.argv[1]
 cfg = from_dict({"jobs": 2, "scene": {"n_scenes": 1}, "mission": {"limit_missions": 2},
+                 "planner": {"modules": ["helpers.held_runs"]},
                  "llm": {"cache_mode": "replay", "cache_dir": sys.argv[2]}})
 run_scenes(cfg, root + "/scenes")
 run_candidates(cfg, root + "/scenes", root + "/candidates")
@@ -161,27 +165,32 @@ def _tree_state(d: Path) -> dict:
 @pytest.mark.integration
 def test_a_killed_two_worker_run_leaves_nothing_running(tmp_path):
     import psutil
+    from helpers.held_runs import HELD_DIR_ENV
+    from helpers.waits import Output, assert_running, wait_until
 
+    held = tmp_path / "held"
+    held.mkdir()
     proc = subprocess.Popen([sys.executable, "-c", KILL_SCRIPT, str(tmp_path), str(ROOT / "data" / "llm_cache")],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "INTERLLM_PROGRESS": "0"})
+                            env={**os.environ, "INTERLLM_PROGRESS": "0", HELD_DIR_ENV: str(held),
+                                 "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT / "tests"),
+                                                                             os.environ.get("PYTHONPATH")]))})
+    out = Output(proc)
     parent = psutil.Process(proc.pid)
     try:
-        assert proc.stdout.readline().strip() == "missions"
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline:  # two workers up and writing run logs
-            cmds = [_cmdline(c) for c in parent.children(recursive=True)]
-            workers = [c for c in cmds if c and "resource_tracker" not in c]  # "": ended meanwhile
-            if len(workers) >= 2 and list((tmp_path / "runs").rglob("*.mcap*")):
-                break
-            time.sleep(0.05)
-        else:
-            pytest.fail("the missions stage did not start two workers within 120 s")
+        out.wait_for_line("stdout", "missions", timeout=300, what="the scenes and candidates stages")
+        wait_until(lambda: len(list(held.iterdir())) >= 2, timeout=120,
+                   what="two missions workers starting a run", gone=lambda: proc.poll() is not None,
+                   details=lambda: out.text("stderr"))
+        assert_running(proc, "the missions stage with its two workers held in a run", out)
         children = parent.children(recursive=True)
+        workers = {int(p.name) for p in held.iterdir()}
+        assert workers <= {c.pid for c in children if c.is_running()}, (workers, [_cmdline(c) for c in children])
+        assert list((tmp_path / "runs").rglob("*.mcap.partial")), "the held runs have no open run log"
     finally:
         proc.kill()
         proc.wait(timeout=30)
-    gone, alive = psutil.wait_procs(children, timeout=10)
+    gone, alive = psutil.wait_procs(children, timeout=30)
     assert not alive, f"still running after the parent was killed: {[_cmdline(p) for p in alive]}"
     before = _tree_state(tmp_path / "runs")
     time.sleep(1.0)
