@@ -53,13 +53,15 @@ $(LLAMA_STAMP): $(LLAMA_WHEELS)/.built | $(PY)
 	touch $@
 
 # Everything else. --only-binary keeps pip from building llama-cpp-python again from source.
-# The Stretch robot's URDF and meshes (sim/robot=stretch) come from a data-only package installed
-# without its dependencies: its URDF loader (urchin, with pyglet and trimesh) is not needed, since
-# interllm/sim/urdf_chain.py reads the file itself.
+# Two data packages are installed without their dependencies: the Stretch robot's URDF and meshes
+# (sim/robot=stretch; its URDF loader urchin, with pyglet and trimesh, is not needed, since
+# interllm/sim/urdf_chain.py reads the file itself) and ProcTHOR's asset database (procthor: its
+# house generator's numpy, matplotlib, trimesh, python-sat and AI2-THOR are not needed, since
+# interllm/scene/procthor_db.py reads the JSON files itself).
 $(VENV)/.installed: pyproject.toml requirements.lock $(LLAMA_STAMP)
 	$(PY) -m pip install --quiet $(CONSTRAINTS) --only-binary llama-cpp-python \
 	  --find-links $(LLAMA_WHEELS) -e '.[dev]'
-	$(PY) -m pip install --quiet --no-deps $(CONSTRAINTS) hello-robot-stretch-urdf
+	$(PY) -m pip install --quiet --no-deps $(CONSTRAINTS) hello-robot-stretch-urdf procthor
 	touch $@
 
 # Reinstall the llama.cpp build this Makefile's settings choose (the fix that a model-load check
