@@ -183,7 +183,7 @@ def test_the_arm_slows_down_near_obstacles_so_clutter_costs_time():
     open_trial, _, _ = _cup_trial(slowing, neighbour=False)
     assert open_trial.time == pytest.approx(trial.time)
     # at the grasp the fingers are 2 cm above the table top: the table is within arm_slow_distance
-    table = [ik.support_geom]
+    table = list(ik.support_geoms)
     assert arm_ik.arm_clearance(ik, q_grasp, table, slowing.arm_slow_distance) == pytest.approx(0.045, abs=0.01)
     assert arm_ik.arm_clearance(ik, TUCK, table, 0.1) == 0.1  # tucked: 0.14 m above the table edge
     # were it an obstacle, the descent would be slower than in free space, but never slower than

@@ -69,6 +69,15 @@ def edge_distances(furniture: Furniture, x: float, y: float) -> dict[str, float]
 # ---- floor plan ----------------------------------------------------------------------------------
 
 
+def boxes_distance(xy: np.ndarray, boxes) -> np.ndarray:
+    """Distance [m] from points (..., 2) to the nearest of the rectangles ``boxes`` (0 inside one), e.g.
+    ``Furniture.boxes``."""
+    out = footprint_distance(xy, boxes[0])
+    for b in boxes[1:]:
+        out = np.minimum(out, footprint_distance(xy, b))
+    return out
+
+
 def footprint_distance(xy: np.ndarray, fp: tuple[float, float, float, float]) -> np.ndarray:
     """Distance [m] from points (..., 2) to an axis-aligned rectangle (x0, y0, x1, y1) (0 inside)."""
     x0, y0, x1, y1 = fp

@@ -23,10 +23,11 @@ import networkx as nx
 
 SCHEMA_VERSION = 1
 # Record fields written to the scene file only when set, so that scenes without them keep their bytes.
-OMITTED_WHEN_EMPTY = frozenset({"unreachable"})
+OMITTED_WHEN_EMPTY = frozenset({"unreachable", "parts"})
 
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
+Box2 = tuple[float, float, float, float]  # axis-aligned rectangle (x0, y0, x1, y1) [m]
 
 
 @dataclass(frozen=True)
@@ -98,15 +99,26 @@ class Furniture:
     size: Vec3  # footprint x, y extent and height of the top surface [m] (axis-aligned)
     description: str = ""
     unreachable: str = ""  # why the robot cannot reach it ("": reachable); kept, left out of missions
+    # A furniture that is no box (an L- or C-shaped counter): the rectangles (x0, y0, x1, y1) [m] it
+    # stands on, all inside ``footprint``; empty: the footprint box itself. Omitted from the file when
+    # empty, so box-shaped scenes keep their bytes.
+    parts: tuple[Box2, ...] = ()
 
     @property
     def surface_height(self) -> float:
         return self.size[2]
 
     @property
-    def footprint(self) -> tuple[float, float, float, float]:
+    def footprint(self) -> Box2:
+        """The bounding box (x0, y0, x1, y1) [m] of the footprint (the whole footprint when ``parts``
+        is empty)."""
         cx, cy = self.center
         return cx - self.size[0] / 2, cy - self.size[1] / 2, cx + self.size[0] / 2, cy + self.size[1] / 2
+
+    @property
+    def boxes(self) -> tuple[Box2, ...]:
+        """The rectangles the furniture occupies: ``parts``, or the footprint alone."""
+        return self.parts or (self.footprint,)
 
 
 @dataclass(frozen=True)

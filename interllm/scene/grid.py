@@ -123,7 +123,8 @@ def rasterize(scene: SceneGraph, resolution: float = 0.05, robot_radius: float =
         _fill_box(occ, origin, resolution, (min(w.start[0], w.end[0]) - t, min(w.start[1], w.end[1]) - t,
                                             max(w.start[0], w.end[0]) + t, max(w.start[1], w.end[1]) + t))
     for f in scene.furniture.values():
-        _fill_box(occ, origin, resolution, f.footprint)
+        for box in f.boxes:
+            _fill_box(occ, origin, resolution, box)
     if doors == "true":
         for d in scene.doors.values():
             seg = d.leaf_segment()
@@ -196,3 +197,12 @@ def approach_cells(grid: OccupancyGrid, footprint: tuple[float, float, float, fl
     dy = np.maximum(np.maximum(y0 - ys, ys - y1), 0.0)
     ok = (np.hypot(dx, dy) <= reach) & grid.free[r0:r1, c0:c1]
     return np.stack([rr[ok], cc[ok]], axis=-1)
+
+
+def approach_cells_of(grid: OccupancyGrid, boxes, reach: float) -> np.ndarray:
+    """``approach_cells`` of a furniture of several rectangles (``Furniture.boxes``): the free cells
+    within ``reach`` [m] of any of them, (row, col) sorted like ``approach_cells``'s."""
+    if len(boxes) == 1:
+        return approach_cells(grid, boxes[0], reach)
+    cells = np.concatenate([approach_cells(grid, b, reach) for b in boxes])
+    return np.unique(cells, axis=0) if len(cells) else cells

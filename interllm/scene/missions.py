@@ -39,7 +39,7 @@ from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.geometry import r4
 from interllm.scene.graph import Command, Goal, Mission, SceneGraph
 from interllm.scene.grid import (
-    approach_cells,
+    approach_cells_of,
     clear_of_obstacles,
     free_components,
     largest_component,
@@ -143,7 +143,7 @@ def start_pose(scene: SceneGraph, furniture_id: str, grid, robot_radius: float,
         labels, _ = free_components(grid)
     main = largest_component(labels)
     f = scene.furniture[furniture_id]
-    cells = approach_cells(grid, f.footprint, robot_radius + REACH_MARGIN)
+    cells = approach_cells_of(grid, f.boxes, robot_radius + REACH_MARGIN)
     if not len(cells):
         return None
     cells = cells[labels[cells[:, 0], cells[:, 1]] == main]

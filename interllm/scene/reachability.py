@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from interllm.scene.graph import SceneGraph
-from interllm.scene.grid import approach_cells, free_components, largest_component
+from interllm.scene.grid import approach_cells_of, free_components, largest_component
 
 REACH_MARGIN = 0.35  # [m] beyond the robot radius: how far the arm reaches over an edge
 
@@ -25,7 +25,7 @@ def unreachable(scene: SceneGraph, grid, robot_radius: float) -> list[str]:
         if main == 0 or not (sub == main).any():
             bad.append(rid)
     for fid in sorted(scene.furniture):
-        cells = approach_cells(grid, scene.furniture[fid].footprint, robot_radius + REACH_MARGIN)
+        cells = approach_cells_of(grid, scene.furniture[fid].boxes, robot_radius + REACH_MARGIN)
         if main == 0 or not len(cells) or not (labels[cells[:, 0], cells[:, 1]] == main).any():
             bad.append(fid)
     return bad

@@ -96,10 +96,10 @@ def _draw_house(ax, scene: SceneGraph, *, labels: bool, font: int, narrow_width:
         if leaf is not None:
             ax.plot([leaf[0][0], leaf[1][0]], [leaf[0][1], leaf[1][1]], color="#d62828", lw=3, zorder=4)
     for f in sorted(scene.furniture.values(), key=lambda f: f.id):
-        fx0, fy0, fx1, fy1 = f.footprint
         unreachable = {"hatch": "xx", "facecolor": "#f1c0c0"} if f.unreachable else {"facecolor": "#a8dadc"}
-        ax.add_patch(Rectangle((fx0, fy0), fx1 - fx0, fy1 - fy0, edgecolor="#1d3557", lw=0.6, zorder=2,
-                               **unreachable))
+        for fx0, fy0, fx1, fy1 in f.boxes:
+            ax.add_patch(Rectangle((fx0, fy0), fx1 - fx0, fy1 - fy0, edgecolor="#1d3557", lw=0.6, zorder=2,
+                                   **unreachable))
         if labels:
             ax.text(f.center[0], f.center[1], f.id, fontsize=font - 1, ha="center", va="center",
                     color="#1d3557", zorder=6)

@@ -36,7 +36,12 @@ def scene_json_schema() -> dict:
                    ["id", "rooms", "center", "axis", "width"])
     furniture = _record({"id": _ID, "category": {"type": "string", "minLength": 1}, "room": _ID,
                          "center": _VEC2, "size": _SIZE3, "description": {"type": "string"},
-                         "unreachable": _WHY},
+                         "unreachable": _WHY,
+                         "parts": {"type": "array", "items": {"type": "array", "items": _NUM, "minItems": 4,
+                                                              "maxItems": 4},
+                                   "description": "the rectangles [x0, y0, x1, y1] of a footprint that is "
+                                                  "no box (an L- or C-shaped counter), inside the box "
+                                                  "center +- size / 2"}},
                         ["id", "category", "room", "center", "size"])
     obj = _record({"id": _ID, "category": {"type": "string", "minLength": 1}, "furniture": _ID,
                    "position": _VEC3, "size": _SIZE3, "usage": {"type": "string"},

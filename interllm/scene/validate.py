@@ -153,6 +153,8 @@ def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radi
         if f["room"] not in rooms:
             raise SceneValidationError(source, f"$.furniture[{i}].room",
                                        f"unknown room {f['room']!r}; valid rooms: {sorted(rooms)}")
+    for i, f in enumerate(d["furniture"]):
+        _check_parts(f, source, f"$.furniture[{i}].parts")
     for i, o in enumerate(d["objects"]):
         if o["furniture"] not in furn:
             hint = " (an object rests on exactly one furniture, not a room)" if o["furniture"] in rooms else ""
@@ -162,10 +164,12 @@ def validate_scene(scene: SceneGraph | dict, source: str = "<scene>", robot_radi
         f = d["furniture"][furn[o["furniture"]]]
         (cx, cy), (sx, sy, _) = f["center"], f["size"]
         x, y = o["position"][0], o["position"][1]
-        if not (cx - sx / 2 - 1e-6 <= x <= cx + sx / 2 + 1e-6 and cy - sy / 2 - 1e-6 <= y <= cy + sy / 2 + 1e-6):
+        boxes = f.get("parts") or [(cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)]
+        if not any(b[0] - 1e-6 <= x <= b[2] + 1e-6 and b[1] - 1e-6 <= y <= b[3] + 1e-6 for b in boxes):
+            shape = f"parts {[list(b) for b in boxes]}" if f.get("parts") else \
+                f"footprint centre {tuple(f['center'])}, size {sx} x {sy} m"
             raise SceneValidationError(source, f"$.objects[{i}].position",
-                                       f"({x}, {y}) is not over its furniture {f['id']!r} "
-                                       f"(footprint centre {tuple(f['center'])}, size {sx} x {sy} m)")
+                                       f"({x}, {y}) is not over its furniture {f['id']!r} ({shape})")
     for i, dr in enumerate(d.get("doors", [])):
         for j, r in enumerate(dr["rooms"]):
             if r not in rooms:
@@ -248,3 +252,17 @@ def looks_like_scene(d: Any) -> bool:
     rooms = d.get("rooms")
     return "schema_version" in d or (isinstance(d.get("furniture"), list) and isinstance(rooms, list)
                                      and any(isinstance(r, dict) and "polygon" in r for r in rooms))
+
+
+def _check_parts(f: dict, source: str, at: str) -> None:
+    """A furniture's ``parts`` are non-empty rectangles inside its bounding box (centre +- size / 2)."""
+    (cx, cy), (sx, sy, _) = f["center"], f["size"]
+    for j, (x0, y0, x1, y1) in enumerate(f.get("parts") or ()):
+        if not (x0 < x1 and y0 < y1):
+            raise SceneValidationError(source, f"{at}[{j}]", f"[{x0}, {y0}, {x1}, {y1}] is empty: a part is "
+                                                             f"[x0, y0, x1, y1] with x0 < x1 and y0 < y1")
+        tol = 1e-3
+        if x0 < cx - sx / 2 - tol or x1 > cx + sx / 2 + tol or y0 < cy - sy / 2 - tol or y1 > cy + sy / 2 + tol:
+            raise SceneValidationError(source, f"{at}[{j}]", f"[{x0}, {y0}, {x1}, {y1}] sticks out of the furniture's "
+                                                             f"box (centre {tuple(f['center'])}, size {sx} x {sy} m); "
+                                                             f"grow size or move the part")

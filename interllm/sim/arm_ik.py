@@ -62,7 +62,7 @@ class LocalIK:
     furniture_geoms: list[int]
     object_geoms: dict[str, int]
     structure_geoms: list[int]  # walls and door leaves (reach protocol; else empty)
-    support_geom: int  # the furniture the action is at (the surface the arm works on)
+    support_geoms: tuple[int, ...]  # the furniture the action is at (the surface the arm works on; one geom per part)
     _limits: dict = field(default_factory=dict, repr=False)  # avoid geoms -> IK limits (``limits``)
 
     def limits(self, avoid: Sequence[int]) -> list:
@@ -116,7 +116,8 @@ def build_local_ik(scene: SceneGraph, furniture_id: str, cfg: SimConfig, exclude
         furniture_geoms=[g for g, n in names.items() if n.startswith("furniture/")],
         object_geoms={n.split("/", 1)[1]: g for g, n in names.items() if n.startswith("object/")},
         structure_geoms=[g for g, n in names.items() if n.startswith(("wall/", "door/"))],
-        support_geom=model.geom(f"furniture/{furniture_id}").id)
+        support_geoms=tuple(g for g, n in names.items()
+                            if n == f"furniture/{furniture_id}" or n.startswith(f"furniture/{furniture_id}/")))
     assert model.nq == len(parts.joints), "the local IK model must have only the arm joints"
     return ik
 

@@ -34,7 +34,7 @@ from interllm.config import POSE_PROTOCOLS, SimConfig
 from interllm.core.actions import Action
 from interllm.core.seeding import pose_sampling_seed
 from interllm.planning.search import grid_csr
-from interllm.scene.geometry import footprint_distance
+from interllm.scene.geometry import boxes_distance
 from interllm.scene.graph import Furniture
 from interllm.scene.grid import OccupancyGrid, clear_of_obstacles
 from interllm.sim.physics import contact_radius
@@ -146,7 +146,7 @@ def window_poses(grid: OccupancyGrid, furniture: Furniture, target_xy, action: A
     if len(cells) == 0:
         return []
     pts = grid.cell_to_world(cells)
-    pts = pts[footprint_distance(pts, furniture.footprint) <= cfg.robot_radius + POSE_RING]
+    pts = pts[boxes_distance(pts, furniture.boxes) <= cfg.robot_radius + POSE_RING]
     if len(pts) == 0:
         return []
     dt = np.hypot(pts[:, 0] - target_xy[0], pts[:, 1] - target_xy[1])

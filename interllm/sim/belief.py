@@ -16,7 +16,7 @@ import numpy as np
 from scipy import ndimage
 
 from interllm.planning.search import GridSearch
-from interllm.scene.geometry import footprint_distance
+from interllm.scene.geometry import boxes_distance
 from interllm.scene.graph import Furniture
 from interllm.scene.grid import OccupancyGrid, clear_of_obstacles
 
@@ -99,7 +99,7 @@ class BeliefMap:
         if len(cells) == 0:
             cells = np.argwhere(g.free)
         pts = g.cell_to_world(cells)
-        d_fp = footprint_distance(pts, f.footprint)
+        d_fp = boxes_distance(pts, f.boxes)
         for ring in ANCHOR_RINGS:
             ok = d_fp <= self.robot_radius + ring
             if ok.any():

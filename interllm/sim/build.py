@@ -66,9 +66,16 @@ def add_segment_box(body, name: str, a, b, thickness: float, height: float, rgba
 
 
 def add_furniture(body, f: Furniture) -> None:
+    """A furniture's body: one box geom ``furniture/<id>`` of its footprint, or one per part of a
+    furniture that is no box (``furniture/<id>``, ``furniture/<id>/part1``, ...), each its full height."""
     fb = body.add_body(name=f"furniture/{f.id}", pos=[f.center[0], f.center[1], 0.0])
-    _static(fb, f"furniture/{f.id}", (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2), (0, 0, f.size[2] / 2),
-            rgba=_FURNITURE_RGBA)
+    if not f.parts:
+        _static(fb, f"furniture/{f.id}", (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2), (0, 0, f.size[2] / 2),
+                rgba=_FURNITURE_RGBA)
+        return
+    for k, (x0, y0, x1, y1) in enumerate(f.parts):
+        _static(fb, f"furniture/{f.id}" + (f"/part{k}" if k else ""), ((x1 - x0) / 2, (y1 - y0) / 2, f.size[2] / 2),
+                ((x0 + x1) / 2 - f.center[0], (y0 + y1) / 2 - f.center[1], f.size[2] / 2), rgba=_FURNITURE_RGBA)
 
 
 def add_object(body, o: SceneObject, free: bool = True) -> None:

@@ -23,7 +23,8 @@ PLACE_GAP = 0.02  # [m] clearance to other objects when placing
 def place_spot(scene: SceneGraph, furniture_id: str, obj_size, near_xy, held: Optional[str]) -> Optional[np.ndarray]:
     """A free spot (x, y, z of the object's centre) [m] on a furniture's top surface, nearest to
     ``near_xy`` along the closest edge, inset so the object is fully on the surface and at
-    least PLACE_GAP from every other object but ``held``; None if there is no room."""
+    least PLACE_GAP from every other object but ``held`` (on a furniture of several parts, wholly on
+    one of them); None if there is no room."""
     f = scene.furniture[furniture_id]
     x0, y0, x1, y1 = f.footprint
     sx, sy, sz = (float(v) for v in obj_size)
@@ -39,6 +40,12 @@ def place_spot(scene: SceneGraph, furniture_id: str, obj_size, near_xy, held: Op
     cand = np.array([[base[0] + dx, base[1] + dy] for dx in offs for dy in offs])
     cand = cand[(cand[:, 0] >= lox - 1e-9) & (cand[:, 0] <= hix + 1e-9) & (cand[:, 1] >= loy - 1e-9)
                 & (cand[:, 1] <= hiy + 1e-9)]
+    if f.parts:  # a furniture that is no box: the object must stand wholly on one part
+        on = np.zeros(len(cand), dtype=bool)
+        for px0, py0, px1, py1 in f.parts:
+            on |= ((cand[:, 0] >= px0 + sx / 2 + m - 1e-9) & (cand[:, 0] <= px1 - sx / 2 - m + 1e-9)
+                   & (cand[:, 1] >= py0 + sy / 2 + m - 1e-9) & (cand[:, 1] <= py1 - sy / 2 - m + 1e-9))
+        cand = cand[on]
     d = np.hypot(cand[:, 0] - near_xy[0], cand[:, 1] - near_xy[1])
     for k in np.lexsort((cand[:, 1], cand[:, 0], np.round(d, 9))):
         cx, cy = cand[k]

@@ -48,7 +48,7 @@ def run_trial(cfg: SimConfig, ik: LocalIK, bp: BasePose, target: np.ndarray, ins
     ik.model.body_quat[ik.base_body] = yaw_quat_wxyz(bp.yaw)
     reach_yaw = None if ik.parts.reach is None else bp.yaw + ik.parts.heading
     rot = topdown_rotation((bp.x, bp.y), target[:2], reach_yaw)
-    near = [g for g in avoid if g != ik.support_geom]  # what slows the arm: not the surface every grasp ends on
+    near = [g for g in avoid if g not in ik.support_geoms]  # what slows the arm: not the surface every grasp ends on
     tuck = ik.parts.tuck
     s1 = solve_ik(ik, tuck, target + np.array([0.0, 0.0, PRE_GRASP_HEIGHT]), rot, cfg, avoid)
     t_arm = arm_motion_time(cfg, ik, tuck, s1.q, near)
