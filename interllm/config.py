@@ -41,6 +41,7 @@ SCENE_SIZES = ("paper", "medium", "large", "huge", "tiny", "custom")
 SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/floor_plans.py)
 OBJECT_DESIGNS = ("graded", "legacy")  # scene.object_design (interllm/scene/graded_objects.py, surface_objects.py)
 MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stages/feasibility.py)
+MISSION_COMMANDS = ("auto", "catalog", "open")  # mission.commands (interllm/scene/open_commands.py)
 ORACLE_COSTS = ("classes", "numeric")  # llm.oracle_costs (interllm/planning/oracle.py)
 CANDIDATE_DIVERSITY = ("objects", "plans")  # llm.candidate_diversity (interllm/planning/scoring.py)
 # sweep: the report section an experiment's multirun jobs feed (interllm/stages/report.py finds
@@ -127,6 +128,10 @@ class MissionConfig:
     # (enough reachable and placeable instances, distinct across the mission); a command that
     # cannot be filled is reduced or dropped with a log line. off: commands drawn unchecked
     feasibility: str = "measured"
+    # where commands come from (interllm/scene/open_commands.py): catalog (its 12 commands), open (the
+    # catalog's and commands generated from what the house holds, with ProcTHOR's statistics of what
+    # stands where), auto (the catalog's; the generated ones for a house that hosts none of them)
+    commands: str = "auto"
 
     def validate(self) -> None:
         _check(self.n_missions >= 1, "mission.n_missions", f"must be >= 1, got {self.n_missions}")
@@ -138,6 +143,7 @@ class MissionConfig:
         _check(self.limit_missions is None or self.limit_missions >= 1, "mission.limit_missions",
                "must be null or >= 1")
         _choice(self.feasibility, "mission.feasibility", MISSION_FEASIBILITY)
+        _choice(self.commands, "mission.commands", MISSION_COMMANDS)
 
 
 @dataclass

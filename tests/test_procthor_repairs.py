@@ -70,17 +70,66 @@ def test_an_unreachable_chair_is_kept_marked_and_left_out_of_missions(tmp_path, 
     assert "$.furniture[" in err and "'chair_3' is not reachable" in err
 
 
-def test_a_house_whose_commands_all_need_unreachable_furniture_is_rejected_saying_so():
-    h = {"rooms": [{"id": "room|2", "roomType": "LivingRoom", "floorPolygon": rect(0, 0, 3, 3)}],
-         "walls": room_walls(2, 0, 0, 3, 3, {"S", "E", "N", "W"}),
-         "objects": [obj("DiningTable", 2, 0, 0.95, 0.55, children=[child("Apple", 2, 1, 0.9, 0.5)]),
-                     obj("Sofa", 2, 1, 1.0, 1.6), obj("Sofa", 2, 2, 2.05, 0.95, rot=90)]}
-    with pytest.raises(SceneValidationError) as ei:
-        import_procthor(h)
-    msg = str(ei.value)
-    assert "$.objects: no command of the catalog can be hosted with 3 reachable objects" in msg
-    assert "breakfast: every dining_table is unreachable (dining_table_1)" in msg
-    assert "meeting: no desk/nightstand/dresser in a bedroom (missing)" in msg
+def _walled_in_house() -> dict:
+    """A living room whose only table (with the apple) is walled in by two sofas: no catalog command,
+    and nothing reachable to put anywhere."""
+    return {"rooms": [{"id": "room|2", "roomType": "LivingRoom", "floorPolygon": rect(0, 0, 3, 3)}],
+            "walls": room_walls(2, 0, 0, 3, 3, {"S", "E", "N", "W"}),
+            "objects": [obj("DiningTable", 2, 0, 0.95, 0.55, children=[child("Apple", 2, 1, 0.9, 0.5)]),
+                        obj("Sofa", 2, 1, 1.0, 1.6), obj("Sofa", 2, 2, 2.05, 0.95, rot=90)]}
+
+
+def fridge_house() -> dict:
+    """The kind of ProcTHOR house the catalog refused (issue 55): a kitchen whose food is all in a
+    closed fridge and without the catalog's counter or table, and a living room of a sofa, an armchair
+    and a side table holding what the catalog's commands do not ask for together."""
+    food = [child(t, 2, k, 0.6, 2.6, y=0.8) for k, t in enumerate(("Apple", "Egg", "Tomato"))]
+    sofa = [child("Pillow", 3, 1, 5.8, 2.5, y=0.5), child("RemoteControl", 3, 2, 6.3, 2.5, y=0.5)]
+    side = [child("Book", 3, 3, 7.6, 0.4, y=0.7), child("CellPhone", 3, 4, 7.5, 0.3, y=0.7),
+            child("KeyChain", 3, 5, 7.7, 0.45, y=0.7)]
+    return {"id": "fridge_house", "metadata": {"schema": "1.0.0"},
+            "rooms": [{"id": "room|2", "roomType": "Kitchen", "floorPolygon": rect(0, 0, 4, 3)},
+                      {"id": "room|3", "roomType": "LivingRoom", "floorPolygon": rect(4, 0, 8, 3)}],
+            "walls": room_walls(2, 0, 0, 4, 3, {"S", "N", "W"}) + room_walls(3, 4, 0, 8, 3, {"S", "N", "E"}),
+            "doors": [door(2, 3, wall_id(2, (4, 0), (4, 3)), wall_id(3, (4, 3), (4, 0)), 1.0, 2.0)],
+            "objects": [obj("Fridge", 2, 0, 0.6, 2.6, y=0.98, asset="Fridge_1", children=food),
+                        obj("Sofa", 3, 0, 6.0, 2.5, children=sofa), obj("SideTable", 3, 1, 7.6, 0.4, children=side),
+                        obj("ArmChair", 3, 2, 4.8, 0.6)]}
+
+
+def test_a_house_no_catalog_command_fits_imports_with_commands_over_what_it_holds():
+    from interllm.scene.open_commands import commands_for
+
+    scene, lines = _import(fridge_house())
+    assert not any(ln.startswith("warning:") for ln in lines), lines  # commands it has: no warning
+    lacking = _line(lines, "catalog command without 3 reachable objects or a target")
+    assert lacking.startswith("12 × ") and "breakfast: no dining_table (missing)" in lacking
+    gen = _line(lines, "command generated from what the house holds")
+    assert gen.startswith("4 × ") and "Put the pillow, the book and the remote control on the armchair in the " \
+                                     "living room." in gen
+    assert _line(lines, "object inside a closed receptacle").startswith("3 × ")
+    cat = load_catalog()
+    assert commands_for(scene, cat, "catalog", 3) is cat
+    open_cat = commands_for(scene, cat, "auto", 3)
+    generated = open_cat.commands[len(cat.commands):]
+    assert len(generated) == 4 and all(c.resolve_targets(scene) for c in generated)
+    inside = {o.category for o in scene.objects.values() if o.placement == "inside"}
+    missions = generate_missions(scene, MissionConfig(n_missions=3, commands_per_mission=2), 0.25,
+                                 footprint_radius=0.30, catalog=open_cat)
+    asked = [c for m in missions for c in m.commands]
+    assert asked and {c.id for c in asked} <= {c.id for c in generated}
+    assert all(1 <= c.goal.n_objects <= 3 for c in asked)
+    assert not inside & {cat for c in asked for cat in c.goal.categories}  # never the fridge's food
+
+
+def test_a_house_with_no_command_at_all_imports_and_warns_that_no_mission_can_be_drawn():
+    scene, lines = _import(_walled_in_house())
+    assert any("breakfast: every dining_table is unreachable (dining_table_1)" in ln for ln in lines), lines
+    assert _line(lines, "warning: no command can be hosted: none of the catalog's").endswith(
+        "add objects on reachable furniture, or free the floor around the unreachable ones")
+    with pytest.raises(Exception, match=r"scene '.*': the simulator's measurement finds no command|supports no "
+                                        r"command"):
+        generate_missions(scene, MissionConfig(n_missions=1), 0.25, footprint_radius=0.30)
 
 
 def _island_house(rotation_in_aabb: bool) -> dict:

@@ -72,10 +72,11 @@ def test_the_default_robot_reaches_most_open_surfaces_and_the_v1_robot_a_quarter
     assert picked >= 0.70 * total  # the issue's bar; 64/78 (82%) measured when the arm root moved
     for cat in ("kitchen_counter", "side_table", "sink", "dresser"):
         assert by_cat[cat][0] >= by_cat[cat][1] - 2, (cat, by_cat[cat])
-    # ringed by chairs; and a coffee table's top (0.45 m) is at the arm root's lowest height (0.451 m),
-    # so the root's 0.32 m bone to the shoulder sweeps it: out of reach from some sides
+    # ringed by chairs: out of reach from some sides (10 of 15 measured). A coffee table's top (0.45 m) is
+    # at the arm root's lowest height (0.451 m); with its objects' true sizes (ProcTHOR's asset database:
+    # a Book_1 and a Laptop_1 stand taller than the catalog's) all 6 are pickable (5 before)
     assert by_cat["dining_table"][0] < by_cat["dining_table"][1]
-    assert by_cat["coffee_table"][0] < by_cat["coffee_table"][1]
+    assert by_cat["coffee_table"][0] >= by_cat["coffee_table"][1] - 1
     v1, _, _ = _open_surface_share(houses, SimConfig(**compose_config(["sim/robot=generic"])["sim"]))
     assert v1 <= 25 and picked >= v1 + 20
 

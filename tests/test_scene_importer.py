@@ -88,7 +88,8 @@ def test_missing_optional_fields_are_one_report_line_each():
     rep = ImportReport()
     s = import_procthor(h, report=rep)
     assert rep.lines() == s.meta["import_report"]
-    assert rep.lines() == [
+    hosting = ("catalog command without", "command generated from")  # what the house can host: not fields
+    assert [ln for ln in rep.lines() if not any(h in ln for h in hosting)] == [
         "1 × door without holePolygon: 1.0 m wide at its assetPosition (e.g. door|2|3)",
         "1 × object without position: put at the centre of its parent (e.g. Apple|surface|2|1)",
         "1 × room without roomType: typed 'room' (e.g. room|3)"]

@@ -37,6 +37,9 @@ MANIFEST = "manifest.json"
 FROZEN_FILES = ("scene.json", "missions.json", "feasibility.json")  # per scene, in this order
 # config keys that do not change which houses and missions are drawn, so a benchmark leaves them free
 FREE_KEYS = frozenset({"scene.reach_report", "mission.limit_missions"})
+# keys added after benchmarks were frozen, with the value that draws their houses and missions as they
+# were drawn: a manifest without the key was frozen with that value
+ADDED_KEYS = {"mission": {"commands": "auto"}}
 # counts a run may lower: house i and mission j do not depend on how many are drawn (house i is
 # generated with scene.seed + i, mission j with its own seed), so the first ones are a subset
 SUBSET_KEYS = ("scene.n_scenes", "mission.n_missions")
@@ -155,7 +158,11 @@ class Benchmark:
     def check_config(self, given: dict, n_scenes: int, n_missions: int) -> None:
         """:class:`BenchmarkError` listing every key (``drawn_with``) that differs from the frozen config,
         and the counts (``SUBSET_KEYS``) beyond the frozen ones."""
-        diff = config_differences(self.manifest.config, given)
+        frozen = {**self.manifest.config}
+        for group, added in ADDED_KEYS.items():
+            if isinstance(frozen.get(group), Mapping):
+                frozen[group] = {**added, **frozen[group]}
+        diff = config_differences(frozen, given)
         for key, n, have in (("scene.n_scenes", n_scenes, len(self.scenes_frozen)),
                              ("mission.n_missions", n_missions, self.manifest.n_missions)):
             if n > have:

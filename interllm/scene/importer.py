@@ -31,7 +31,9 @@ Untidy houses are repaired, not rejected (``interllm.scene.repair``; ``ImportOpt
 child lies off its footprint is checked against its rotation and its ``axisAlignedBoundingBox``; a child
 more than ``CHILD_SLACK`` off its parent goes to the nearest surface, the floor, or is dropped;
 furniture the robot cannot reach is kept, marked unreachable, and left out of missions. The house is
-rejected only when a child cannot be repaired (all listed) or no command of the catalog can be hosted.
+rejected only when a child cannot be repaired (all listed). A house that hosts no command of the catalog
+is imported with a warning naming the commands generated from what it holds (``open_commands``), which
+its missions then draw; one that hosts no command at all is imported with a warning too.
 
 The conversion's stages: ``procthor_format`` (names, checked fields, the report, ids),
 ``procthor_layout`` (rooms, walls, doors), ``procthor_objects`` (furniture and their children), then
@@ -47,10 +49,11 @@ from typing import Optional
 from interllm.io import NAME_MAX, InputFileError, read_json
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.graph import SceneGraph
+from interllm.scene.open_commands import open_commands
 from interllm.scene.procthor_format import Conversion, ImportOptions, ImportReport
 from interllm.scene.procthor_layout import convert_floor_map
 from interllm.scene.procthor_objects import convert_objects
-from interllm.scene.repair import mark_unreachable, reject_unhostable
+from interllm.scene.repair import mark_unreachable, warn_unhostable
 from interllm.scene.validate import SceneValidationError, check_scene_id, check_scene_size, looks_like_scene
 
 SCHEMA = "1.0.0"  # metadata.schema of the houses this importer reads
@@ -67,7 +70,7 @@ def import_procthor(house: str | Path | dict, catalog: Catalog | None = None, sc
     opts: ``ImportOptions`` (default: repair untidy houses; ``strict=True``: reject them).
     Raises ``SceneValidationError`` with the JSON path when a required field is missing or wrong, when
     the file is a scene in this project's format already, or (without strict) when children cannot be
-    repaired (all listed) or no command of the catalog can be hosted.
+    repaired (all listed). Which commands a house can host never refuses it (the report warns).
     """
     cat = catalog or load_catalog()
     rep = report if report is not None else ImportReport()
@@ -129,7 +132,8 @@ def _convert(d: dict, cv: Conversion, scene_id: str | None, wall_thickness: floa
     opts = cv.opts
     if not opts.strict:
         cv.at = "$.objects"
-        if mark_unreachable(scene, opts.robot_radius, opts.resolution, cv.rep, paths):
-            reject_unhostable(scene, cv.cat, cv.source, opts.objects_per_command)
+        mark_unreachable(scene, opts.robot_radius, opts.resolution, cv.rep, paths)
+        generated = [c.text for c in open_commands(scene, cv.cat)]
+        warn_unhostable(scene, cv.cat, opts.objects_per_command, generated, cv.rep)
     scene.meta["import_report"] = cv.rep.lines()
     return scene

@@ -14,6 +14,7 @@ from typing import Optional
 
 from interllm.scene.geometry import point_in_polygon, r4
 from interllm.scene.graph import Furniture, Room, SceneObject
+from interllm.scene.procthor_db import counter_shape, load_database
 from interllm.scene.procthor_format import (
     CHILD_ALIASES,
     WALL_MOUNTED,
@@ -31,6 +32,7 @@ from interllm.scene.repair import (
     footprint_distance,
     place_stray_child,
 )
+from interllm.scene.shaped_furniture import arm_towards_wall, front_side, opposite, shaped_parts
 from interllm.scene.validate import SceneValidationError
 
 DEFAULT_FURNITURE_SIZE = (1.0, 0.6, 0.75)  # [m]
@@ -107,7 +109,9 @@ def _furniture(o: dict, p: str, cv: Conversion, rooms: dict[str, Room]) -> Optio
     if room is None:
         raise SceneValidationError(source, f"{p}.position", f"({fx}, {fy}) is inside no room's floorPolygon")
     desc = cat.furniture[fcat].description if known else ""
-    return Furniture(ids.new(fcat), fcat, room, (r4(fx), r4(fy)), (r4(sx), r4(sy), r4(top)), desc)
+    box = (fx - sx / 2, fy - sy / 2, fx + sx / 2, fy + sy / 2)
+    return Furniture(ids.new(fcat), fcat, room, (r4(fx), r4(fy)), (r4(sx), r4(sy), r4(top)), desc,
+                     parts=_shape_parts(o, raw, box, rooms[room], rep))
 
 
 def _flatten(children: list) -> list:
@@ -152,7 +156,7 @@ def _child(c: dict, f: Furniture, cp: str, cv: Conversion, world: tuple[dict, di
         if moved is None:
             return None
         f = moved
-    x0, y0, x1, y1 = f.footprint
+    x0, y0, x1, y1 = _nearest_box(f, ox, oy)
     mx = min(sx / 2 + CHILD_MARGIN, (x1 - x0) / 2)
     my = min(sy / 2 + CHILD_MARGIN, (y1 - y0) / 2)
     nx, ny = min(max(ox, x0 + mx), x1 - mx), min(max(oy, y0 + my), y1 - my)
@@ -172,6 +176,28 @@ def _child(c: dict, f: Furniture, cp: str, cv: Conversion, world: tuple[dict, di
     return oid, obj
 
 
+def _nearest_box(f: Furniture, x: float, y: float) -> tuple[float, float, float, float]:
+    """The rectangle of ``f`` (its footprint, or the part of an L or C counter) nearest (x, y) [m]."""
+    return min(f.boxes, key=lambda b: math.hypot(max(b[0] - x, 0.0, x - b[2]), max(b[1] - y, 0.0, y - b[3])))
+
+
+def _shape_parts(o: dict, tname: str, box: tuple[float, float, float, float], room: Room,
+                 rep: ImportReport) -> tuple:
+    """The parts of an L- or C-shaped counter (its ``assetId`` names the shape): the back arm opposite
+    the side its ``rotation.y`` faces, an L's side arm towards the nearer wall; () for other furniture."""
+    shape = counter_shape(str(o.get("assetId") or ""))
+    if shape is None or shape[0] not in ("L", "C"):
+        return ()
+    back = opposite(front_side(float((o.get("rotation") or {}).get("y", 0.0))))
+    arm = arm_towards_wall(box, back, room.bounds) if shape[0] == "L" else None
+    parts = shaped_parts(shape[0], box, back, arm)
+    if parts:
+        rep.add(f"{shape[0]}-shaped counter: {len(parts)} boxes (back along {back}"
+                + (f", arm along {arm}, the side nearer a wall" if arm else "") + "), its inner corner free floor",
+                f"{tname} {o.get('assetId')}")
+    return parts
+
+
 def _inside(c: dict, f: Furniture, size_z: float) -> bool:
     """A child of a closed receptacle whose centre lies below the receptacle's top: inside it."""
     pos = c.get("position")
@@ -182,13 +208,15 @@ def _inside(c: dict, f: Furniture, size_z: float) -> bool:
 
 
 def _box(o: dict, catalog_size, rep: ImportReport, what: str, default) -> tuple[float, float, float]:
-    """(x extent, z extent, height) [m]: the file's axisAlignedBoundingBox, else the catalog size turned by
-    rotation.y (the bounding box of the turned footprint), else ``default`` (reported)."""
+    """(x extent, z extent, height) [m]: the file's axisAlignedBoundingBox, else the bounding box of its
+    ``assetId`` in ProcTHOR's asset database (``procthor_db``), else the catalog size, the last two turned
+    by rotation.y (the bounding box of the turned footprint), else ``default`` (reported)."""
     aabb = o.get("axisAlignedBoundingBox")
     if isinstance(aabb, dict) and isinstance(aabb.get("size"), dict):
         s = aabb["size"]
         return float(s["x"]), float(s["z"]), float(s["y"])
-    size = catalog_size
+    asset = load_database().assets.get(str(o.get("assetId") or ""))
+    size = asset.size if asset is not None else catalog_size
     if size is None:
         rep.add(f"{what} without a bounding box, type not in the catalog: default size {default}", str(o.get("id")))
         size = default

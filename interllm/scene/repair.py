@@ -10,7 +10,8 @@ box. Instead of rejecting the whole house for one such item, the importer
   ``CHILD_SURFACE_BOUND``, else on a patch of floor under it, else drops it (``place_stray_child``);
 - keeps furniture the robot cannot reach (and the objects on it), marked unreachable with the reason
   (``mark_unreachable``), so that missions leave them out;
-- then rejects the house only when no command of the catalog can be hosted (``reject_unhostable``).
+- then warns, without refusing the house, when no command of the catalog can be hosted, naming the
+  commands generated from what the house holds instead (``warn_unhostable``).
 
 Every repair is a line of the ``ImportReport`` naming the JSON paths it touched.
 """
@@ -19,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Optional, Protocol
 
 from interllm.scene.catalog import Catalog
@@ -27,7 +28,6 @@ from interllm.scene.geometry import point_in_polygon, r4
 from interllm.scene.graph import Furniture, Room, SceneGraph
 from interllm.scene.grid import rasterize
 from interllm.scene.reachability import REACH_MARGIN, unreachable
-from interllm.scene.validate import SceneValidationError
 
 CHILD_SLACK = 0.5  # [m] a child farther than this outside its parent's footprint is a stray, not a nudge
 CHILD_SURFACE_BOUND = 1.0  # [m] a stray child goes to a supporting surface at most this far from it
@@ -42,6 +42,8 @@ class Report(Protocol):
     """What the repairs need of ``importer.ImportReport``."""
 
     def add(self, reason: str, item: str) -> None: ...
+
+    def warn(self, text: str) -> None: ...
 
 
 def footprint_distance(fp: tuple[float, float, float, float], x: float, y: float) -> float:
@@ -215,12 +217,22 @@ def hosting_problems(scene: SceneGraph, cat: Catalog, n_objects: int) -> list[st
     return out
 
 
-def reject_unhostable(scene: SceneGraph, cat: Catalog, source: str, n_objects: int) -> None:
-    """Raise ``SceneValidationError`` for a house none of whose commands can be hosted with ``n_objects``
-    reachable objects, saying what each command lacks (called when furniture was marked unreachable; a
-    house with all furniture reachable is left to the missions stage)."""
+def warn_unhostable(scene: SceneGraph, cat: Catalog, n_objects: int, generated: Sequence[str], rep: Report) -> None:
+    """Report a house none of whose catalog commands can be hosted with ``n_objects`` reachable objects:
+    one report line per command saying what it lacks, and the commands generated from what the house
+    holds (``open_commands``) that its missions draw instead. Only a house with neither gets a warning
+    (it is imported all the same; the scenes stage will find no command for it)."""
     problems = hosting_problems(scene, cat, n_objects)
-    if problems:
-        raise SceneValidationError(source, "$.objects", f"no command of the catalog can be hosted with {n_objects} "
-                                   f"reachable objects: {'; '.join(problems)}; add the missing furniture or "
-                                   f"objects, or free the floor around the unreachable ones")
+    if not problems:
+        return
+    for p in problems:
+        rep.add(f"catalog command without {n_objects} reachable objects or a target: missions draw the "
+                f"commands generated from what the house holds", p)
+    for text in generated:
+        rep.add("command generated from what the house holds (mission.commands=auto or open)", text)
+    if not generated:
+        rep.warn(f"no command can be hosted: none of the catalog's with {n_objects} reachable objects "
+                 f"({'; '.join(problems)}), nor any generated from what the house holds (no reachable furniture "
+                 f"that holds a reachable object of another): no mission can be drawn in this house, and the "
+                 f"scenes stage will say so; add objects on reachable furniture, or free the floor around the "
+                 f"unreachable ones")

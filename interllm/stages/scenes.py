@@ -22,10 +22,12 @@ from interllm.scene.benchmark import (
     pickups_changed,
     recheck,
 )
+from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.generator import generate_scene
 from interllm.scene.graph import SceneGraph
 from interllm.scene.grid import OccupancyGrid, clear_of_obstacles, free_components, rasterize
 from interllm.scene.missions import draw_missions, save_missions, standable_start
+from interllm.scene.open_commands import commands_for
 from interllm.scene.render import render_topdown
 from interllm.scene.validate import SceneValidationError, load_scene_file
 from interllm.sim.build import build_world_spec
@@ -101,12 +103,19 @@ def make_scene(cfg: ExperimentConfig, index: int, bench: Optional[Benchmark] = N
                           footprint_radius=cfg.sim.footprint_radius)
 
 
-def measure(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid]):
-    """The simulator's measurement of a scene's commands (``stages.feasibility.measure_scene``), as
-    much as a mission of the config can use."""
+def scene_commands(cfg: ExperimentConfig, scene: SceneGraph) -> Catalog:
+    """The catalog whose commands the scene's missions draw from (``mission.commands``: the catalog's,
+    and commands generated from what the house holds; ``scene.open_commands``)."""
+    return commands_for(scene, load_catalog(), cfg.mission.commands, cfg.mission.objects_per_command)
+
+
+def measure(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid], cat: Catalog | None = None):
+    """The simulator's measurement of a scene's commands (``stages.feasibility.measure_scene``; those
+    of ``cat``, default ``scene_commands``), as much as a mission of the config can use."""
     k = cfg.mission.objects_per_command
     return measure_scene(scene, cfg.sim, cfg.scene.grid_resolution, k, grids,
-                         need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report)
+                         need=k * cfg.mission.commands_per_mission, all_pickups=cfg.scene.reach_report,
+                         catalog=cat if cat is not None else scene_commands(cfg, scene))
 
 
 def object_design(scene: SceneGraph) -> str:
@@ -115,12 +124,14 @@ def object_design(scene: SceneGraph) -> str:
 
 
 def scene_missions(cfg: ExperimentConfig, scene: SceneGraph, grids: dict[str, OccupancyGrid],
-                   meas: SceneFeasibility | None = None) -> tuple[list, dict]:
+                   meas: SceneFeasibility | None = None, cat: Catalog | None = None) -> tuple[list, dict]:
     """The missions of a scene and its ``feasibility.json`` document: the simulator measures which
-    instances each command can get (``stages.feasibility``; ``meas`` when already measured), the draw
-    uses that with mission.feasibility=measured (and records it either way)."""
-    meas = meas if meas is not None else measure(cfg, scene, grids)
-    drawn = draw_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution,
+    instances each command of ``cat`` (default ``scene_commands``) can get (``stages.feasibility``;
+    ``meas`` when already measured), the draw uses that with mission.feasibility=measured (and records
+    it either way)."""
+    cat = cat if cat is not None else scene_commands(cfg, scene)
+    meas = meas if meas is not None else measure(cfg, scene, grids, cat)
+    drawn = draw_missions(scene, cfg.mission, cfg.sim.robot_radius, cfg.scene.grid_resolution, catalog=cat,
                           footprint_radius=cfg.sim.footprint_radius, fulfillable=meas.fulfillable())
     record = feasibility_record(meas, drawn, cfg.mission.feasibility, object_design(scene),
                                 cfg.mission.commands_per_mission)
@@ -194,9 +205,10 @@ def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
         atomic_write_bytes(d / "grid.npz", OccupancyGrid.pair_npz_bytes(presumed, true, cfg.sim.robot_radius))
         atomic_write_text(d / "scene.xml", build_world_spec(scene, robot=False, sim_cfg=cfg.sim).to_xml())
         grids = {"presumed": presumed, "true": true}
-        meas = measure(cfg, scene, grids)
+        cat = scene_commands(cfg, scene)
+        meas = measure(cfg, scene, grids, cat)
         missions, record = benchmark_missions(cfg, bench, scene, grids, meas) if bench else \
-            scene_missions(cfg, scene, grids, meas)
+            scene_missions(cfg, scene, grids, meas, cat)
         save_missions(d / "missions.json", missions)
         write_json(d / "feasibility.json", record)
         meas.measurements.write(d / MEASUREMENTS_FILE)  # what the stages after need not measure again
