@@ -435,8 +435,12 @@ def test_12_results_diff_on_a_metrics_file_of_the_wrong_shape_names_it(tmp_path,
 # the test's Ctrl-C: it says so on stdout, and stays there. A stage left to run may be done before the
 # signal lands (on a loaded machine), and a test of that measures the scheduler, not the handler.
 HELD_STAGE = textwrap.dedent("""
-    import runpy, sys, time
+    import runpy, signal, sys, time
     from interllm.stages import scenes
+
+    # Ctrl-C as an interactive terminal delivers it: a shell that starts a job in the background (as
+    # some CI runners start the suite) leaves SIGINT ignored in every child, and Python keeps it so.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
     def held(*args, **kw):
         print("in the first scene", flush=True)

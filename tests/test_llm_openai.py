@@ -156,7 +156,10 @@ def _generate_loop(real_server, tmp_path, overrides: dict) -> None:
            "cost_inference_mode": "generate", "cache_dir": str(tmp_path / "cache"), "max_tokens": 256,
            # the 270M model may ramble past max_tokens in generate mode; this test is about the loop over
            # HTTP, not the model's answers (the failure-share stop has its own tests in test_robustness.py)
-           "max_failure_share": 0.5}
+           "max_failure_share": 0.5,
+           # the server answers the two workers' requests in turn; on a loaded machine a request can wait
+           # longer than the default deadline behind the other's, and this test is not about speed
+           "timeout_s": 600}
     base = {"jobs": 2, "scene": {"n_scenes": 1}, "mission": {"n_missions": 1}, **overrides}
     run_all(from_dict({**base, "llm": llm}), tmp_path / "live")
     calls = [json.loads(x) for x in (tmp_path / "live" / "candidates" / "llm_calls.jsonl").read_text().splitlines()]
@@ -205,7 +208,7 @@ def test_score_mode_over_http_agrees_with_the_embedded_model(real_server, tmp_pa
 
     prompt, conts = "The cat sat on the", (" mat", " moon", " chair")
     cfg = LLMConfig(backend="openai", model="gemma3-270m", base_url=real_server, cache_mode="off",
-                    cache_dir=str(tmp_path / "c"), proposal_mode="score", timeout_s=120)
+                    cache_dir=str(tmp_path / "c"), proposal_mode="score", timeout_s=600)
     http = make_client(cfg).score(ScoreRequest(purpose="t", prompt=prompt, continuations=conts))
     local = make_client(LLMConfig(cache_mode="off", cache_dir=str(tmp_path / "c2"))).score(
         ScoreRequest(purpose="t", prompt=prompt, continuations=conts))

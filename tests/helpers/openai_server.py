@@ -216,8 +216,10 @@ def llama_server(model_path: str, alias: str = "gemma3-270m", n_ctx: int = 8192,
     pytest.importorskip("llama_cpp.server", reason="llama-cpp-python's server extra is not installed")
     port = free_port()
     log = tempfile.TemporaryFile(mode="w+")  # the server logs a lot; a pipe nobody reads would block it
+    # one decoding thread: the server answers one request at a time behind one lock (its /models too),
+    # and llama.cpp's threads spin at their barriers, so two of them on 2 busy cores are slower than one
     proc = subprocess.Popen([sys.executable, "-m", "llama_cpp.server", "--model", model_path, "--model_alias", alias,
-                             "--host", "127.0.0.1", "--port", str(port), "--n_ctx", str(n_ctx), "--n_threads", "2",
+                             "--host", "127.0.0.1", "--port", str(port), "--n_ctx", str(n_ctx), "--n_threads", "1",
                              "--seed", "0"], stdout=log, stderr=subprocess.STDOUT, text=True)
     base = f"http://127.0.0.1:{port}/v1"
     try:
