@@ -301,6 +301,8 @@ class PlannerConfig:
 PLANNER_NODES = {"inter_llm": InterLLMConfig, "sayplan": SayPlanConfig, "moma_llm": MoMaLLMConfig}
 
 
+INTERVAL_METHODS = ("cluster_bootstrap", "cr2")  # metrics.interval (interllm.metrics.stats)
+
 @dataclass
 class MetricsConfig:
     gamma_obj: float = 100.0  # unfulfilled-object normalising factor γ_obj
@@ -309,6 +311,10 @@ class MetricsConfig:
     bootstrap_samples: int = 2000
     ci: float = 0.95
     seed: int = 0
+    # how intervals are made (interllm.metrics.stats): "cluster_bootstrap" resamples houses, then
+    # missions (bootstrap_samples, seed); "cr2" is the CR2 t interval with Bell–McCaffrey degrees
+    # of freedom (interllm.metrics.cluster_t), whose coverage tests/test_interval_coverage.py checks
+    interval: str = "cluster_bootstrap"
     # the judged planner: the one whose paired differences against every other planner (the
     # anchors nothing and optimal aside) the report gives and whose claims it checks
     judge: str = "inter_llm"
@@ -321,6 +327,7 @@ class MetricsConfig:
         _check(100 <= self.bootstrap_samples <= 100000, "metrics.bootstrap_samples",
                "must be in [100, 100000]")
         _check(0.5 <= self.ci < 1.0, "metrics.ci", f"must be in [0.5, 1), got {self.ci}")
+        _choice(self.interval, "metrics.interval", INTERVAL_METHODS)
 
 
 @dataclass

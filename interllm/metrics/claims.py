@@ -138,7 +138,8 @@ def _per_object(per_command: Iterable[Mapping]) -> dict[tuple, dict[int, float]]
 
 
 def self_improvement(per_command: Iterable[Mapping], judge: str, n_boot: int = 2000,
-                     ci: float = 0.95, seed: int = 0, exclude: Iterable[str] = ()) -> dict[str, dict]:
+                     ci: float = 0.95, seed: int = 0, exclude: Iterable[str] = (),
+                     method: str = "cluster_bootstrap") -> dict[str, dict]:
     """Per baseline (planners in ``exclude``, the anchors, left out): {did, lo, hi, n, verdict}:
     the difference in differences (module doc) [m_overall per object]."""
     po = _per_object(per_command)
@@ -154,7 +155,7 @@ def self_improvement(per_command: Iterable[Mapping], judge: str, n_boot: int = 2
                 d.append((cmds[last] - other[last]) - (cmds[first] - other[first]))
                 houses.append(s)
         mean, lo, hi = bootstrap_mean_ci(d, n_boot, ci, bootstrap_seed(seed, f"self_improvement:{judge}:{base}"),
-                                         houses)
+                                         houses, method)
         verdict = "cannot tell" if not (math.isfinite(lo) and math.isfinite(hi)) else \
             "holds" if hi < 0 else "does not hold" if lo > 0 else "cannot tell"
         out[base] = {"did": mean, "lo": lo, "hi": hi, "n": len(d), "verdict": verdict}

@@ -47,6 +47,7 @@ import numpy as np
 from interllm.core.records import MissionRecord
 from interllm.core.seeding import bootstrap_seed
 from interllm.metrics import planner_info
+from interllm.metrics.cluster_t import house_means
 from interllm.metrics.stats import bootstrap_mean_ci, by_mission, houses_of, joint_bootstrap, paired_mean_diff
 
 NOTHING, OPTIMAL = "nothing", "optimal"  # the two anchors of the normalised position
@@ -77,7 +78,7 @@ def exec_cost(row: Mapping, gamma_nav: float) -> float:
 
 
 def planner_deliveries(per_mission: Iterable[Mapping], gamma_nav: float, n_boot: int = 2000, ci: float = 0.95,
-                       seed: int = 0) -> dict[str, dict]:
+                       seed: int = 0, method: str = "cluster_bootstrap") -> dict[str, dict]:
     """Per planner: {"delivered" [objects, all missions], "delivered_per_mission" (mean, "_ci_lo",
     "_ci_hi") [objects / mission], "exec_cost" [s / mission, mean of γ_nav·cc + t_exe + d],
     "exec_cost_per_delivered" [s / object; NaN when nothing was delivered]}."""
@@ -89,7 +90,7 @@ def planner_deliveries(per_mission: Iterable[Mapping], gamma_nav: float, n_boot:
         dl = [float(r["n_fulfilled"]) for r in rows[p]]
         ex = [exec_cost(r, gamma_nav) for r in rows[p]]
         m, lo, hi = bootstrap_mean_ci(dl, n_boot, ci, bootstrap_seed(seed, f"mission:delivered:{p}"),
-                                      [str(r["scene"]) for r in rows[p]])
+                                      [str(r["scene"]) for r in rows[p]], method)
         total = int(round(sum(dl)))
         out[p] = {"delivered": total, "delivered_per_mission": m, "delivered_per_mission_ci_lo": lo,
                   "delivered_per_mission_ci_hi": hi, "exec_cost": sum(ex) / len(ex),
@@ -98,12 +99,13 @@ def planner_deliveries(per_mission: Iterable[Mapping], gamma_nav: float, n_boot:
 
 
 def paired_comparisons(per_mission: Iterable[Mapping], judge: str, n_boot: int = 2000, ci: float = 0.95,
-                       seed: int = 0) -> dict[str, dict]:
+                       seed: int = 0, method: str = "cluster_bootstrap") -> dict[str, dict]:
     """{"<judge>_vs_<other>": {"baseline", "baseline_anchor" (bool), "n_pairs",
     "m_overall_diff" [s / mission], "delivered_diff" [objects / mission], each with "_ci_lo" and
-    "_ci_hi"}} for every other planner: judged − other on the (scene, mission) pairs both ran,
-    paired bootstrap CIs. A negative m_overall_diff is better; a negative delivered_diff is fewer
-    objects delivered."""
+    "_ci_hi" and "_by_house" ({house: the mean difference over its missions}, the per-house effects
+    the interval generalises over)}} for every other planner: judged − other on the (scene,
+    mission) pairs both ran, paired CIs (``method``). A negative m_overall_diff is better; a
+    negative delivered_diff is fewer objects delivered."""
     rows = list(per_mission)
     m, dl = by_mission(rows, "m_overall"), by_mission(rows, "n_fulfilled")
     out: dict[str, dict] = {}
@@ -113,9 +115,11 @@ def paired_comparisons(per_mission: Iterable[Mapping], judge: str, n_boot: int =
         keys = sorted(set(m[judge]) & set(m[b]))
         d: dict[str, Any] = {"baseline": b, "baseline_anchor": is_anchor(b), "n_pairs": len(keys)}
         for name, tab in (("m_overall", m), ("delivered", dl)):
+            diffs = [tab[judge][k] - tab[b][k] for k in keys]
             v, lo, hi = paired_mean_diff([tab[judge][k] for k in keys], [tab[b][k] for k in keys], n_boot, ci,
-                                         bootstrap_seed(seed, f"paired_diff:{name}:{judge}:{b}"), houses_of(keys))
-            d.update({f"{name}_diff": v, f"{name}_diff_ci_lo": lo, f"{name}_diff_ci_hi": hi})
+                                         bootstrap_seed(seed, f"paired_diff:{name}:{judge}:{b}"), houses_of(keys), method)
+            d.update({f"{name}_diff": v, f"{name}_diff_ci_lo": lo, f"{name}_diff_ci_hi": hi,
+                      f"{name}_diff_by_house": house_means(diffs, houses_of(keys)) if keys else {}})
         out[f"{judge}_vs_{b}"] = d
     return out
 
@@ -126,16 +130,17 @@ def _position(m: Any, null: Any, opt: Any) -> Any:
 
 
 def position(m: Sequence[float], null: Sequence[float], opt: Sequence[float], n_boot: int = 2000,
-             ci: float = 0.95, seed: int = 0, houses: Optional[Sequence[str]] = None) -> tuple[float, float, float]:
+             ci: float = 0.95, seed: int = 0, houses: Optional[Sequence[str]] = None,
+             method: str = "cluster_bootstrap") -> tuple[float, float, float]:
     """(position, lo, hi) of a planner's per-mission m_overall ``m`` between the nothing anchor's
     ``null`` (0) and the optimal anchor's ``opt`` (1), the same missions in the same order; NaN
     when Σ null = Σ opt. The CI resamples the missions jointly for the three (by house, then
     mission, when ``houses`` names each mission's)."""
-    return joint_bootstrap(_position, [m, null, opt], n_boot, ci, seed, houses)
+    return joint_bootstrap(_position, [m, null, opt], n_boot, ci, seed, houses, method)
 
 
-def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0
-              ) -> dict[str, dict]:
+def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
+              method: str = "cluster_bootstrap") -> dict[str, dict]:
     """Per planner (anchors included: nothing is 0 and optimal 1 by construction):
     {"position", "position_ci_lo", "position_ci_hi", "position_n_missions"} when runs of both
     ``nothing`` and ``optimal`` exist, and {"m_minus_nothing" [s / mission], "_ci_lo", "_ci_hi",
@@ -150,14 +155,15 @@ def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.
             keys = sorted(set(m[p]) & set(m[NOTHING]) & set(m[OPTIMAL]))
             v, lo, hi = position([m[p][k] for k in keys], [m[NOTHING][k] for k in keys],
                                  [m[OPTIMAL][k] for k in keys], n_boot, ci, bootstrap_seed(seed, f"position:{p}"),
-                                 houses_of(keys))
+                                 houses_of(keys), method)
             out[p].update({"position": v, "position_ci_lo": lo, "position_ci_hi": hi,
                            "position_n_missions": len(keys)})
         if p == NOTHING:
             continue
         keys = sorted(set(m[p]) & set(m[NOTHING]))
         v, lo, hi = paired_mean_diff([m[p][k] for k in keys], [m[NOTHING][k] for k in keys], n_boot, ci,
-                                     bootstrap_seed(seed, f"paired_diff:m_overall:{p}:{NOTHING}"), houses_of(keys))
+                                     bootstrap_seed(seed, f"paired_diff:m_overall:{p}:{NOTHING}"), houses_of(keys),
+                                     method)
         out[p].update({"m_minus_nothing": v, "m_minus_nothing_ci_lo": lo, "m_minus_nothing_ci_hi": hi,
                        "below_nothing": (hi < 0) if math.isfinite(hi) else None})
     return out
@@ -199,7 +205,7 @@ def _exec_undelivered(per_object: Iterable[Mapping], gamma_nav: float, gamma_man
 
 def gamma_obj_sensitivity(per_object: Iterable[Mapping], *, gamma_nav: float, gamma_man: float,
                           gammas: Sequence[float], judge: str, n_boot: int = 2000, ci: float = 0.95,
-                          seed: int = 0) -> dict:
+                          seed: int = 0, method: str = "cluster_bootstrap") -> dict:
     """m_overall per mission recomputed from the per-slot rows at each γ_obj in ``gammas`` [s]
     (γ_nav [s / collision], γ_man [s]).
 
@@ -228,7 +234,8 @@ def gamma_obj_sensitivity(per_object: Iterable[Mapping], *, gamma_nav: float, ga
         by = {}
         for g in gs:  # the same resamples at every γ (and as ``paired_comparisons``' m_overall difference)
             v, lo, hi = paired_mean_diff(er + g * ur, eb + g * ub, n_boot, ci,
-                                         bootstrap_seed(seed, f"paired_diff:m_overall:{judge}:{b}"), houses_of(keys))
+                                         bootstrap_seed(seed, f"paired_diff:m_overall:{judge}:{b}"), houses_of(keys),
+                                         method)
             by[gamma_key(g)] = {"diff": v, "ci_lo": lo, "ci_hi": hi}
         out["comparisons"][f"{judge}_vs_{b}"] = {
             "baseline": b, "baseline_anchor": is_anchor(b), "n_pairs": len(keys), "exec_diff": de,
@@ -260,26 +267,26 @@ def candidate_diversity(records: Iterable[MissionRecord]) -> dict[str, dict]:
 # ---- everything the aggregate stage adds -------------------------------------------------------
 def delivery_metrics(records: Sequence[MissionRecord], per_object: Sequence[Mapping], per_mission: Sequence[Mapping],
                      *, gamma_nav: float, gamma_man: float, gammas: Sequence[float], judge: str,
-                     n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> dict:
+                     n_boot: int = 2000, ci: float = 0.95, seed: int = 0, method: str = "cluster_bootstrap") -> dict:
     """{"planners": {planner: fields to merge into metrics.json's planners (``planner_deliveries``,
     ``positions``, "anchor" and how tables show it: "label", "color", "order")}, "comparisons",
     "anchors", "gamma_obj_sensitivity",
     "candidate_diversity"} (module doc; γ_nav [s / collision], γ_man [s], ``gammas``: the γ_obj values
     of the sensitivity table [s])."""
-    dl = planner_deliveries(per_mission, gamma_nav, n_boot, ci, seed)
-    pos = positions(per_mission, n_boot, ci, seed)
+    dl = planner_deliveries(per_mission, gamma_nav, n_boot, ci, seed, method)
+    pos = positions(per_mission, n_boot, ci, seed, method)
     planners = {p: {**shown(p), **dl[p], **pos.get(p, {})} for p in sorted(dl)}
     return {"planners": planners,
-            "comparisons": paired_comparisons(per_mission, judge, n_boot, ci, seed),
+            "comparisons": paired_comparisons(per_mission, judge, n_boot, ci, seed, method),
             "anchors": anchors_info(planners),
             "gamma_obj_sensitivity": gamma_obj_sensitivity(per_object, gamma_nav=gamma_nav, gamma_man=gamma_man,
                                                            gammas=gammas, judge=judge, n_boot=n_boot,
-                                                           ci=ci, seed=seed),
+                                                           ci=ci, seed=seed, method=method),
             "candidate_diversity": candidate_diversity(records)}
 
 
 def paired_runs(variant: Iterable[Mapping], base: Iterable[Mapping], planner: str, n_boot: int = 2000,
-                ci: float = 0.95, seed: int = 0) -> dict:
+                ci: float = 0.95, seed: int = 0, method: str = "cluster_bootstrap") -> dict:
     """Two runs of the same missions (per_mission rows of each) that differ in one setting:
     {"n_pairs", "m_overall_diff" [s / mission], "delivered_diff" [objects / mission],
     "position_diff" [dimensionless; NaN without nothing and optimal runs in both], each with
@@ -294,7 +301,7 @@ def paired_runs(variant: Iterable[Mapping], base: Iterable[Mapping], planner: st
     out["n_pairs"] = len(keys)
     for name, a, b in (("m_overall", mv, mb), ("delivered", dv, db)):
         v, lo, hi = paired_mean_diff([a[planner][k] for k in keys], [b[planner][k] for k in keys], n_boot, ci,
-                                     bootstrap_seed(seed, f"runs:{name}:{planner}"), houses_of(keys))
+                                     bootstrap_seed(seed, f"runs:{name}:{planner}"), houses_of(keys), method)
         out.update({f"{name}_diff": v, f"{name}_diff_ci_lo": lo, f"{name}_diff_ci_hi": hi})
     names = (planner, NOTHING, OPTIMAL)
     if all(n in mv and n in mb for n in names):
@@ -302,7 +309,7 @@ def paired_runs(variant: Iterable[Mapping], base: Iterable[Mapping], planner: st
         series = [[t[n][k] for k in keys] for t in (mv, mb) for n in names]
         v, lo, hi = joint_bootstrap(lambda a, an, ao, b, bn, bo: _position(a, an, ao) - _position(b, bn, bo),
                                     series, n_boot, ci, bootstrap_seed(seed, f"runs:position:{planner}"),
-                                    houses_of(keys))
+                                    houses_of(keys), method)
     else:
         v, lo, hi = NAN, NAN, NAN
     out.update({"position_diff": v, "position_diff_ci_lo": lo, "position_diff_ci_hi": hi})

@@ -121,10 +121,20 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
                          ci(c.get("delivered_diff"), c.get("delivered_diff_ci_lo"), c.get("delivered_diff_ci_hi"), 2,
                             sign=True),
                          ci(c.get("m_overall_diff"), c.get("m_overall_diff_ci_lo"), c.get("m_overall_diff_ci_hi"),
-                            sign=True), _reading(c)])
-        doc.table(["comparison", "pairs", "Δ delivered / mission [CI]", "Δ m_overall / mission [CI]", "reading"],
-                  crow)
+                            sign=True), _by_house_cell(c.get("m_overall_diff_by_house", {})), _reading(c)])
+        doc.table(["comparison", "pairs", "Δ delivered / mission [CI]", "Δ m_overall / mission [CI]",
+                   "Δ m_overall per house (houses below 0)", "reading"], crow)
     doc.p(feasibility_sentence(scenes_dir, scene_ids, pl))
+
+
+def _by_house_cell(by_house: Mapping[str, Any]) -> str:
+    """The per-house mean differences of a comparison, in house order, and how many are below 0
+    ("–" for metrics made before they were recorded)."""
+    if not by_house:
+        return "–"
+    vals = [num_or_nan(v) for _, v in sorted(by_house.items())]
+    cells = ", ".join(f"{v:+.1f}" if math.isfinite(v) else "–" for v in vals)
+    return f"{cells} ({sum(v < 0 for v in vals)}/{len(vals)})"
 
 
 def _reading(c: Mapping) -> str:

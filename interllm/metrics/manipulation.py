@@ -116,7 +116,8 @@ def _bin(attr: str, v: Any) -> Optional[str]:
     return None
 
 
-def attribute_table(rows: Sequence[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> list[dict]:
+def attribute_table(rows: Sequence[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
+                    method: str = "cluster_bootstrap") -> list[dict]:
     """Mean c_man and sr_man of the pickups per bin of each placement attribute (and per generator
     label): [{attribute, bin, n, c_man, ci_lo, ci_hi, sr_man, hard_share}], CIs by a bootstrap clustered by house."""
     pickups = [r for r in rows if r["kind"] == "pickup" and r["label"] != ""]
@@ -132,7 +133,7 @@ def attribute_table(rows: Sequence[Mapping], n_boot: int = 2000, ci: float = 0.9
             continue
         m, lo, hi = stats.bootstrap_mean_ci([float(r["c_man"]) for r in g], n_boot, ci,
                                             bootstrap_seed(seed, f"c_man:{attr}:{b}"),
-                                            [str(r["scene"]) for r in g])
+                                            [str(r["scene"]) for r in g], method)
         out.append({"attribute": attr, "bin": b, "n": len(g), "c_man": m, "ci_lo": lo, "ci_hi": hi,
                     "sr_man": sum(float(r["sr_man"]) for r in g) / len(g),
                     "hard_share": _share(g, lambda r: r["cost_class"] == "hard")})

@@ -34,22 +34,23 @@ def _by_key(rows: Iterable[Mapping], planner: str, key: tuple[str, ...]) -> dict
 
 
 def _diff(full: dict[tuple, Mapping], variant: dict[tuple, Mapping], field: str, n_boot: int, ci: float,
-          seed: int) -> dict[str, Any]:
+          seed: int, method: str) -> dict[str, Any]:
     """{"<field>_diff", "_ci_lo", "_ci_hi"}: full − variant of ``field`` over the keys both have."""
     keys = sorted(set(full) & set(variant))
     v, lo, hi = paired_mean_diff([float(full[k][field]) for k in keys], [float(variant[k][field]) for k in keys],
-                                 n_boot, ci, seed, houses_of(keys))
+                                 n_boot, ci, seed, houses_of(keys), method)
     return {f"{field}_diff": v, f"{field}_diff_ci_lo": lo, f"{field}_diff_ci_hi": hi}
 
 
 def _cost_per_delivered(full: dict[tuple, Mapping], variant: dict[tuple, Mapping], gamma_nav: float,
-                        n_boot: int, ci: float, seed: int) -> dict[str, Any]:
+                        n_boot: int, ci: float, seed: int, method: str) -> dict[str, Any]:
     """Cost per delivered object [s / object] of each and full − variant with its CI."""
     keys = sorted(set(full) & set(variant))
     series = [[exec_cost(t[k], gamma_nav) for k in keys] for t in (full, variant)]
     dl = [[float(t[k]["n_fulfilled"]) for k in keys] for t in (full, variant)]
     v, lo, hi = joint_bootstrap(lambda ef, df, ev, dv: ef / df - ev / dv,
-                                [series[0], dl[0], series[1], dl[1]], n_boot, ci, seed, houses_of(keys))
+                                [series[0], dl[0], series[1], dl[1]], n_boot, ci, seed, houses_of(keys),
+                                method)
     nan = float("nan")
     return {"cost_per_delivered_full": sum(series[0]) / sum(dl[0]) if sum(dl[0]) else nan,
             "cost_per_delivered_variant": sum(series[1]) / sum(dl[1]) if sum(dl[1]) else nan,
@@ -57,7 +58,7 @@ def _cost_per_delivered(full: dict[tuple, Mapping], variant: dict[tuple, Mapping
 
 
 def learning_curve(per_command: Iterable[Mapping], full: str, variant: str, gamma_nav: float, n_boot: int = 2000,
-                   ci: float = 0.95, seed: int = 0) -> list[dict]:
+                   ci: float = 0.95, seed: int = 0, method: str = "cluster_bootstrap") -> list[dict]:
     """Per command index: {"command_index", "n_pairs", delivered (n_fulfilled) and m_overall
     differences full − variant with CIs, cost per delivered object of each and their difference}."""
     rows = list(per_command)
@@ -69,13 +70,15 @@ def learning_curve(per_command: Iterable[Mapping], full: str, variant: str, gamm
         vk = {key[:2]: r for key, r in v.items() if int(key[2]) == k}
         s = bootstrap_seed(seed, f"mechanism:{variant}:{k}")
         out.append({"command_index": k, "n_pairs": len(set(fk) & set(vk)),
-                    **_diff(fk, vk, "n_fulfilled", n_boot, ci, s), **_diff(fk, vk, "m_overall", n_boot, ci, s),
-                    **_cost_per_delivered(fk, vk, gamma_nav, n_boot, ci, s)})
+                    **_diff(fk, vk, "n_fulfilled", n_boot, ci, s, method),
+                    **_diff(fk, vk, "m_overall", n_boot, ci, s, method),
+                    **_cost_per_delivered(fk, vk, gamma_nav, n_boot, ci, s, method)})
     return out
 
 
 def mechanism_table(per_mission: Iterable[Mapping], per_command: Iterable[Mapping], planners: Mapping[str, Mapping],
-                    gamma_nav: float, n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> dict[str, dict]:
+                    gamma_nav: float, n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
+                    method: str = "cluster_bootstrap") -> dict[str, dict]:
     """{variant: {"ablates", "n_pairs", "n_fulfilled_diff", "m_overall_diff" (with CIs),
     "cost_per_delivered_*", "by_command": ``learning_curve``}} for every ablation variant of
     ``planners`` (metrics.json's), full − variant per mission."""
@@ -85,7 +88,8 @@ def mechanism_table(per_mission: Iterable[Mapping], per_command: Iterable[Mappin
         f, v = _by_key(pm, full, ("scene", "mission")), _by_key(pm, variant, ("scene", "mission"))
         s = bootstrap_seed(seed, f"mechanism:{variant}")
         out[variant] = {"ablates": full, "n_pairs": len(set(f) & set(v)),
-                        **_diff(f, v, "n_fulfilled", n_boot, ci, s), **_diff(f, v, "m_overall", n_boot, ci, s),
-                        **_cost_per_delivered(f, v, gamma_nav, n_boot, ci, s),
-                        "by_command": learning_curve(pc, full, variant, gamma_nav, n_boot, ci, seed)}
+                        **_diff(f, v, "n_fulfilled", n_boot, ci, s, method),
+                        **_diff(f, v, "m_overall", n_boot, ci, s, method),
+                        **_cost_per_delivered(f, v, gamma_nav, n_boot, ci, s, method),
+                        "by_command": learning_curve(pc, full, variant, gamma_nav, n_boot, ci, seed, method)}
     return out

@@ -42,6 +42,7 @@ from interllm.metrics import (
 from interllm.metrics.benchmark_check import benchmark_sentence
 from interllm.metrics.compute import read_csv
 from interllm.metrics.doc import Doc
+from interllm.metrics.stats import interval_method
 
 TITLE = "Inter-LLM experiment report"
 
@@ -139,7 +140,18 @@ def _title(doc: Doc, s: Mapping) -> None:
     doc.h(1, TITLE)
     doc.p(f"Input source: **{s.get('source', '?')}**. {s.get('n_runs', '?')} mission runs; γ_nav = {s.get('gamma_nav')}, γ_man = {s.get('gamma_man')}, "
           f"γ_obj = {s.get('gamma_obj')}; LLM temperature {s.get('temperature')}; "
-          f"{int(100 * float(s.get('ci', 0.95)))}% percentile bootstrap CIs with B = "
-          f"{s.get('bootstrap_samples')} (seed {s.get('seed')}), clustered by house: each resample draws the "
-          "houses with replacement, then the missions within each drawn house, because missions in one house "
-          "share its layout, objects and commands. All times are simulated seconds.")
+          f"{_interval_text(s)} All times are simulated seconds.")
+
+
+def _interval_text(s: Mapping) -> str:
+    """How the report's intervals were made (``settings.interval``; runs made before the key
+    existed used the cluster bootstrap)."""
+    pct = int(100 * float(s.get("ci", 0.95)))
+    why = "because missions in one house share its layout, objects and commands"
+    if interval_method({"settings": s}) == "cr2":
+        return (f"{pct}% CR2 t intervals with Bell–McCaffrey degrees of freedom, clustered by house ({why}): "
+                "they generalise to houses like these, and their coverage at this cluster structure is checked "
+                "by simulation (docs/protocol.md, Intervals).")
+    return (f"{pct}% percentile bootstrap CIs with B = {s.get('bootstrap_samples')} (seed {s.get('seed')}), "
+            f"clustered by house: each resample draws the houses with replacement, then the missions within each "
+            f"drawn house, {why}. With few houses these intervals speak for these houses, not for houses like them.")

@@ -13,13 +13,31 @@ from typing import Any, Optional
 
 import numpy as np
 
+from interllm.config import INTERVAL_METHODS
 from interllm.core.records import MissionRecord
 from interllm.core.seeding import bootstrap_seed
+from interllm.metrics.cluster_t import cr2_function_ci, cr2_mean_ci
 from interllm.planning.costs import encode_cost
 
 MIN_CI_SAMPLES = 5  # fewer samples (or pairs) give a mean but no interval: it would mean nothing
 
 Clusters = Optional[Sequence[Hashable]]  # one label per sample: the house (scene) it was measured in
+
+# How an interval is made (``metrics.interval``, one of INTERVAL_METHODS): "cluster_bootstrap", the
+# percentile bootstrap over houses then missions (``resample_counts``), or "cr2", the CR2 t interval
+# with Bell–McCaffrey degrees of freedom (``cluster_t``; docs/protocol.md, "Intervals").
+
+
+def interval_method(metrics: Mapping) -> str:
+    """The interval method a metrics.json was made with (``settings.interval``; metrics made before
+    the key existed used the cluster bootstrap)."""
+    return str(metrics.get("settings", {}).get("interval", "cluster_bootstrap"))
+
+
+def check_method(method: str) -> None:
+    """Raise ValueError naming the valid choices unless ``method`` is one of INTERVAL_METHODS."""
+    if method not in INTERVAL_METHODS:
+        raise ValueError(f"interval method {method!r} is not one of {', '.join(INTERVAL_METHODS)}")
 
 
 def resample_counts(n: int, n_boot: int, seed: int, clusters: Clusters = None) -> np.ndarray:
@@ -67,19 +85,24 @@ def _interval(vals: np.ndarray, ci: float) -> tuple[float, float]:
 
 
 def bootstrap_mean_ci(x: Sequence[float], n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
-                      clusters: Clusters = None) -> tuple[float, float, float]:
-    """(mean, lo, hi): percentile bootstrap CI of the mean of ``x``.
+                      clusters: Clusters = None, method: str = "cluster_bootstrap"
+                      ) -> tuple[float, float, float]:
+    """(mean, lo, hi): CI of the mean of ``x``, a percentile bootstrap by default.
 
     n_boot: resamples B; ci: coverage in (0, 1); seed: Generator seed; clusters: the house of each
-    sample (``resample_counts``: houses, then samples within them). Fewer than ``MIN_CI_SAMPLES``
-    samples give the mean with NaN bounds (the report prints no interval); an empty sample NaNs.
+    sample (``resample_counts``: houses, then samples within them); method: one of
+    INTERVAL_METHODS ("cr2" ignores n_boot and seed). Fewer than ``MIN_CI_SAMPLES`` samples give
+    the mean with NaN bounds (the report prints no interval); an empty sample NaNs.
     """
+    check_method(method)
     a = np.asarray(list(x), dtype=float)
     if a.size == 0:
         return float("nan"), float("nan"), float("nan")
     m = float(a.mean())
     if a.size < MIN_CI_SAMPLES:
         return m, float("nan"), float("nan")
+    if method == "cr2":
+        return m, *cr2_mean_ci(a, ci, clusters)[1:]
     w = resample_counts(a.size, n_boot, seed, clusters)
     lo, hi = _interval((w * a).sum(axis=1) / w.sum(axis=1), ci)
     return m, lo, hi
@@ -92,12 +115,19 @@ def improvement_pct(ref: Sequence[float], base: Sequence[float]) -> float:
     return float("nan") if mb == 0 else 100.0 * (mb - float(np.mean(ref))) / mb
 
 
+def _improvement_of_sums(base: Any, ref: Any) -> Any:
+    """100 · (Σ base − Σ ref) / Σ base from the two sums (``improvement_pct`` of the means)."""
+    return 100.0 * (base - ref) / base
+
+
 def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int = 2000,
-                       ci: float = 0.95, seed: int = 0, clusters: Clusters = None
-                       ) -> tuple[float, float, float]:
+                       ci: float = 0.95, seed: int = 0, clusters: Clusters = None,
+                       method: str = "cluster_bootstrap") -> tuple[float, float, float]:
     """(pct, lo, hi): ``improvement_pct`` of paired samples (same scene and mission at the same
-    position) with a paired percentile bootstrap CI (pairs resampled jointly, clustered by house
-    when ``clusters`` names the houses); NaN bounds from fewer than ``MIN_CI_SAMPLES`` pairs."""
+    position) with a paired CI: a percentile bootstrap (pairs resampled jointly, clustered by house
+    when ``clusters`` names the houses) or, with ``method="cr2"``, the CR2 t interval of the ratio
+    by the delta method; NaN bounds from fewer than ``MIN_CI_SAMPLES`` pairs."""
+    check_method(method)
     r = np.asarray(list(ref), dtype=float)
     b = np.asarray(list(base), dtype=float)
     if r.shape != b.shape:
@@ -107,6 +137,8 @@ def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int 
     pct = improvement_pct(r, b)
     if r.size < MIN_CI_SAMPLES:
         return pct, float("nan"), float("nan")
+    if method == "cr2":
+        return pct, *cr2_function_ci(_improvement_of_sums, [b, r], ci, clusters)[1:]
     w = resample_counts(r.size, n_boot, seed, clusters)
     sb, sr = (w * b).sum(axis=1), (w * r).sum(axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -115,28 +147,31 @@ def paired_improvement(ref: Sequence[float], base: Sequence[float], n_boot: int 
 
 
 def paired_mean_diff(x: Sequence[float], y: Sequence[float], n_boot: int = 2000, ci: float = 0.95,
-                     seed: int = 0, clusters: Clusters = None) -> tuple[float, float, float]:
+                     seed: int = 0, clusters: Clusters = None, method: str = "cluster_bootstrap"
+                     ) -> tuple[float, float, float]:
     """(mean(x − y), lo, hi): the mean paired difference (same scene and mission at the same
     position, in the unit of x and y) with a paired percentile bootstrap CI (pairs resampled
     jointly, clustered by house when ``clusters`` names the houses); NaN bounds from fewer than
-    ``MIN_CI_SAMPLES`` pairs, NaNs from none."""
+    ``MIN_CI_SAMPLES`` pairs, NaNs from none. ``method``: one of INTERVAL_METHODS."""
     a = np.asarray(list(x), dtype=float)
     b = np.asarray(list(y), dtype=float)
     if a.shape != b.shape:
         raise ValueError(f"paired samples differ in length: {a.size} vs {b.size}")
-    return bootstrap_mean_ci(a - b, n_boot, ci, seed, clusters)
+    return bootstrap_mean_ci(a - b, n_boot, ci, seed, clusters, method)
 
 
 def joint_bootstrap(stat: Callable[..., Any], arrays: Sequence[Sequence[float]], n_boot: int = 2000,
-                    ci: float = 0.95, seed: int = 0, clusters: Clusters = None
-                    ) -> tuple[float, float, float]:
+                    ci: float = 0.95, seed: int = 0, clusters: Clusters = None,
+                    method: str = "cluster_bootstrap") -> tuple[float, float, float]:
     """(stat(*sums), lo, hi): a statistic of the sums of several paired samples (one value per
     mission each, the same missions in the same order) with a percentile bootstrap CI that resamples
     the missions jointly for every array (clustered by house when ``clusters`` names the houses).
     ``stat`` gets one sum per array: floats for the point, (n_boot,) arrays for the resamples, so
     it must be a function of sums that does not depend on their scale (a ratio of sums or
     differences of such ratios); resamples where it is not finite are dropped. NaN bounds from
-    fewer than ``MIN_CI_SAMPLES`` missions, NaNs from none."""
+    fewer than ``MIN_CI_SAMPLES`` missions, NaNs from none. With ``method="cr2"`` the interval is
+    ``cluster_t.cr2_function_ci``'s (the delta method; ``stat`` must then be arithmetic)."""
+    check_method(method)
     arrs = [np.asarray(list(a), dtype=float) for a in arrays]
     n = arrs[0].size if arrs else 0
     if any(a.size != n for a in arrs):
@@ -147,6 +182,8 @@ def joint_bootstrap(stat: Callable[..., Any], arrays: Sequence[Sequence[float]],
         point = float(stat(*[float(a.sum()) for a in arrs]))
         if n < MIN_CI_SAMPLES:
             return point, float("nan"), float("nan")
+        if method == "cr2":
+            return point, *cr2_function_ci(stat, arrs, ci, clusters)[1:]
         w = resample_counts(n, n_boot, seed, clusters)
         vals = np.asarray(stat(*[(w * a).sum(axis=1) for a in arrs]), dtype=float)
     lo, hi = _interval(vals, ci)
@@ -167,7 +204,8 @@ def by_mission(per_mission: Iterable[Mapping], metric: str) -> dict[str, dict[tu
 
 
 def compare_planners(per_mission: Iterable[Mapping], judge: str, metric: str = "m_overall",
-                     n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> dict[str, dict]:
+                     n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
+                     method: str = "cluster_bootstrap") -> dict[str, dict]:
     """Paired improvement of ``judge`` over every other planner on the (scene, mission) pairs
     both ran. Returns {baseline: {"pct", "ci_lo", "ci_hi", "n_pairs", "ref_mean", "base_mean"}}."""
     by: dict[str, dict[tuple[str, str], float]] = {}
@@ -183,7 +221,7 @@ def compare_planners(per_mission: Iterable[Mapping], judge: str, metric: str = "
         x = [by[judge][k] for k in keys]
         y = [by[base][k] for k in keys]
         pct, lo, hi = paired_improvement(x, y, n_boot, ci, bootstrap_seed(seed, f"paired:{judge}:{base}"),
-                                         houses_of(keys))
+                                         houses_of(keys), method)
         out[base] = {"pct": pct, "ci_lo": lo, "ci_hi": hi, "n_pairs": len(keys),
                      "ref_mean": float(np.mean(x)) if x else float("nan"),
                      "base_mean": float(np.mean(y)) if y else float("nan")}
@@ -191,7 +229,8 @@ def compare_planners(per_mission: Iterable[Mapping], judge: str, metric: str = "
 
 
 def group_mean_ci(rows: Iterable[Mapping], keys: Sequence[str], value: str, n_boot: int = 2000,
-                  ci: float = 0.95, seed: int = 0, cluster: str = "scene") -> list[dict]:
+                  ci: float = 0.95, seed: int = 0, cluster: str = "scene",
+                  method: str = "cluster_bootstrap") -> list[dict]:
     """Mean and bootstrap CI of ``value`` per group of ``keys``: rows {keys..., mean, ci_lo, ci_hi, n},
     sorted by the group key. The CI is clustered by each row's ``cluster`` field (the house)."""
     groups: dict[tuple, list[float]] = {}
@@ -202,7 +241,8 @@ def group_mean_ci(rows: Iterable[Mapping], keys: Sequence[str], value: str, n_bo
         houses.setdefault(g, []).append(str(r.get(cluster, "")))
     out = []
     for g in sorted(groups):
-        m, lo, hi = bootstrap_mean_ci(groups[g], n_boot, ci, bootstrap_seed(seed, f"{value}:{g!r}"), houses[g])
+        m, lo, hi = bootstrap_mean_ci(groups[g], n_boot, ci, bootstrap_seed(seed, f"{value}:{g!r}"), houses[g],
+                                     method)
         out.append({**dict(zip(keys, g, strict=True)), "mean": m, "ci_lo": lo, "ci_hi": hi, "n": len(groups[g])})
     return out
 
@@ -282,7 +322,8 @@ def confusion_matrix(rows: Iterable[Mapping]) -> dict[str, dict[str, int]]:
     return m
 
 
-def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0) -> list[dict]:
+def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
+                      method: str = "cluster_bootstrap") -> list[dict]:
     """Table II per (temperature, planner), over every judged inference (ground truth measured):
 
     - accuracy = correct / judged ('unknown' counts as wrong), with its bootstrap CI;
@@ -308,8 +349,8 @@ def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0
         m = [r for r in g if int(r["judged"])]
         known = [r for r in m if r["predicted"] != "unknown"]
         nc = sum(int(r["correct"]) for r in m)
-        _, acc_lo, acc_hi = share_ci(m, n_boot, ci, bootstrap_seed(seed, f"semantic:{t}:{p}"))
-        ak, ak_lo, ak_hi = share_ci(known, n_boot, ci, bootstrap_seed(seed, f"semantic_known:{t}:{p}"))
+        _, acc_lo, acc_hi = share_ci(m, n_boot, ci, bootstrap_seed(seed, f"semantic:{t}:{p}"), method)
+        ak, ak_lo, ak_hi = share_ci(known, n_boot, ci, bootstrap_seed(seed, f"semantic_known:{t}:{p}"), method)
         truths = [str(r["truth"]) for r in known]
         majority = max((truths.count(c) for c in CLASSES), default=0) / len(truths) if truths else float("nan")
         conf: dict[str, int] = {}
@@ -334,7 +375,8 @@ def semantic_accuracy(rows: Iterable[Mapping], n_boot: int = 2000, ci: float = 0
     return out
 
 
-def share_ci(rows: Sequence[Mapping], n_boot: int, ci: float, seed: int) -> tuple[float, float, float]:
+def share_ci(rows: Sequence[Mapping], n_boot: int, ci: float, seed: int,
+             method: str = "cluster_bootstrap") -> tuple[float, float, float]:
     """(share, lo, hi) of ``rows`` whose "correct" is 1, with a CI that resamples the missions
     (scene, mission) by house: the share is a ratio of per-mission sums (``joint_bootstrap``)."""
     per: dict[tuple[str, str], list[int]] = {}
@@ -344,7 +386,7 @@ def share_ci(rows: Sequence[Mapping], n_boot: int, ci: float, seed: int) -> tupl
         c[1] += 1
     keys = sorted(per)
     return joint_bootstrap(lambda hits, n: hits / n, [[per[k][0] for k in keys], [per[k][1] for k in keys]],
-                           n_boot, ci, seed, houses_of(keys))
+                           n_boot, ci, seed, houses_of(keys), method)
 
 
 def _verdict(lo: float, hi: float, baseline: float) -> str:

@@ -35,20 +35,24 @@ def clean(v: Any, ndigits: int = 6) -> Any:
     return v
 
 
-def cumulative_rows(per_object: Sequence[Mapping], n_boot: int, ci: float, seed: int) -> list[dict]:
+def cumulative_rows(per_object: Sequence[Mapping], n_boot: int, ci: float, seed: int,
+                    method: str = "cluster_bootstrap") -> list[dict]:
     """Mean running m_overall [s] per (planner, object_index) with its CI: rows {planner, object_index,
     m_overall_cum, ci_lo, ci_hi, n} (``cumulative.csv``)."""
     return [{"planner": r["planner"], "object_index": r["object_index"], "m_overall_cum": r["mean"],
              "ci_lo": r["ci_lo"], "ci_hi": r["ci_hi"], "n": r["n"]}
-            for r in stats.group_mean_ci(per_object, ("planner", "object_index"), "m_overall_cum", n_boot, ci, seed)]
+            for r in stats.group_mean_ci(per_object, ("planner", "object_index"), "m_overall_cum", n_boot, ci, seed,
+                                             method=method)]
 
 
-def per_object_summary(per_object: Sequence[Mapping], n_boot: int, ci: float, seed: int) -> list[dict]:
+def per_object_summary(per_object: Sequence[Mapping], n_boot: int, ci: float, seed: int,
+                       method: str = "cluster_bootstrap") -> list[dict]:
     """Mean and CI of each of ``SUMMARY_METRICS`` per (planner, object_index): rows {planner,
     object_index, metric, mean, ci_lo, ci_hi, n} (``per_object_summary.csv``)."""
     out = []
     for metric in SUMMARY_METRICS:
-        for r in stats.group_mean_ci(per_object, ("planner", "object_index"), metric, n_boot, ci, seed):
+        for r in stats.group_mean_ci(per_object, ("planner", "object_index"), metric, n_boot, ci, seed,
+                                     method=method):
             out.append({"planner": r["planner"], "object_index": r["object_index"], "metric": metric,
                         "mean": r["mean"], "ci_lo": r["ci_lo"], "ci_hi": r["ci_hi"], "n": r["n"]})
     return out
@@ -61,7 +65,7 @@ def semantic_summary(semantic_rows: Sequence[Mapping]) -> dict[str, dict]:
 
 def planner_summaries(per_mission: Sequence[Mapping], per_object: Sequence[Mapping], *,
                       failed_calls: Mapping[str, int], deliveries: Mapping[str, Mapping], n_boot: int, ci: float,
-                      seed: int) -> dict[str, dict]:
+                      seed: int, method: str = "cluster_bootstrap") -> dict[str, dict]:
     """Per planner: missions and objects (``stats.fulfilment_counts``), m_overall per mission and per
     object [s] with CIs, cc [collisions], d [m], t_exe [s] per mission, sr_man and sr_obj per object,
     LLM calls and tokens (``stats.llm_usage``), ``llm_failed_calls`` (from ``failed_calls``:
@@ -76,11 +80,11 @@ def planner_summaries(per_mission: Sequence[Mapping], per_object: Sequence[Mappi
         d: dict[str, Any] = {"n_missions": len(rows_m), **counts[p]}
         m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_m], n_boot, ci,
                                             bootstrap_seed(seed, f"mission:m_overall:{p}"),
-                                            [str(r["scene"]) for r in rows_m])
+                                            [str(r["scene"]) for r in rows_m], method)
         d.update({"m_overall": m, "m_overall_ci_lo": lo, "m_overall_ci_hi": hi})
         m, lo, hi = stats.bootstrap_mean_ci([r["m_overall"] for r in rows_o], n_boot, ci,
                                             bootstrap_seed(seed, f"object:m_overall:{p}"),
-                                            [str(r["scene"]) for r in rows_o])
+                                            [str(r["scene"]) for r in rows_o], method)
         d.update({"m_overall_per_object": m, "m_overall_per_object_ci_lo": lo,
                   "m_overall_per_object_ci_hi": hi})
         for k in ("cc", "d", "t_exe"):  # per mission (sums over its objects)

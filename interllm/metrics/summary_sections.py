@@ -11,6 +11,7 @@ from pathlib import Path
 from interllm.metrics import claims, plots
 from interllm.metrics.compute import read_csv
 from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
+from interllm.metrics.stats import interval_method
 
 
 def ordering_sentence(metrics: Mapping, judge: str) -> str:
@@ -62,7 +63,8 @@ def claims_section(doc: Doc, metrics: Mapping, metrics_dir: Path,
                      f"{fnum(v['pct'])}% [{fnum(v['lo'])}, {fnum(v['hi'])}]", delivered(b), v["verdict"]])
     per_command = read_csv(metrics_dir / "per_command.csv") if (metrics_dir / "per_command.csv").is_file() else []
     # the no-learning variant is the baseline that isolates learning: only the anchors are left out here
-    for b, v in sorted(claims.self_improvement(per_command, judge, exclude=claims.anchors(metrics)).items()):
+    for b, v in sorted(claims.self_improvement(per_command, judge, exclude=claims.anchors(metrics),
+                                                           method=interval_method(metrics)).items()):
         rows.append([f"{ref} self-improves along the mission (vs {plots.label(b)}: gap of the last command minus "
                      f"the first, m_overall per object)", f"{fnum(v['did'])} [{fnum(v['lo'])}, {fnum(v['hi'])}] "
                      f"({v['n']} missions)", "–", v["verdict"]])

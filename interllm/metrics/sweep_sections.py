@@ -17,7 +17,7 @@ from interllm.metrics import capability, claims, plots
 from interllm.metrics.compute import read_csv
 from interllm.metrics.deliveries import paired_runs
 from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
-from interllm.metrics.stats import houses_of, paired_improvement
+from interllm.metrics.stats import houses_of, interval_method, paired_improvement
 
 ENCODING_KEYS = ("llm.oracle_costs", "planner.inter_llm.cost_encoding")
 ENCODING_DEFAULTS = ("classes", "paper")  # the paper's: three cost classes, the paper's text encoding
@@ -238,7 +238,7 @@ def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics
                 row += ["–"] * 4
             else:
                 c = paired_runs(read_csv(vs[v] / "per_mission.csv"), base_rows, judge, n_boot, cov,
-                                bootstrap_seed(seed, f"encoding:{g}:{v}"))
+                                bootstrap_seed(seed, f"encoding:{g}:{v}"), interval_method(metrics))
                 row += [str(c["n_pairs"]),
                         ci(c["delivered_diff"], c["delivered_diff_ci_lo"], c["delivered_diff_ci_hi"], 2, sign=True),
                         ci(c["m_overall_diff"], c["m_overall_diff_ci_lo"], c["m_overall_diff_ci_hi"], sign=True),

@@ -73,6 +73,7 @@ class AggregateSettings:
     judge: str
     gamma_obj_values: tuple[float, ...]
     source: str
+    interval: str = "cluster_bootstrap"
 
     @classmethod
     def from_config(cls, cfg: Any, temperature: Optional[float] = None) -> AggregateSettings:
@@ -82,14 +83,14 @@ class AggregateSettings:
         return cls(gammas=Gammas.from_config(cfg), n_boot=int(mc.bootstrap_samples), ci=float(mc.ci),
                    seed=int(mc.seed), temperature=float(cfg.llm.temperature if temperature is None else temperature),
                    judge=str(mc.judge), gamma_obj_values=tuple(mc.gamma_obj_sensitivity),
-                   source=cfg.llm.source_label)
+                   source=cfg.llm.source_label, interval=str(mc.interval))
 
     def as_json(self, n_runs: int) -> dict:
         """metrics.json's ``settings``."""
         g = self.gammas
         return {"gamma_nav": g.nav, "gamma_man": g.man, "gamma_obj": g.obj, "bootstrap_samples": self.n_boot,
                 "ci": self.ci, "seed": self.seed, "temperature": self.temperature, "judge": self.judge,
-                "n_runs": n_runs, "source": self.source}
+                "n_runs": n_runs, "source": self.source, "interval": self.interval}
 
 
 def run_aggregate(cfg: ExperimentConfig, runs_dir: Path, scenes_dir: Path, out_dir: Path,
@@ -160,13 +161,13 @@ def _tables(records: Sequence[MissionRecord], scenes: Mapping[str, Mapping], sce
     """Every table of ``CSV_FILES``, by table name."""
     t = compute_tables(records, scenes, s.gammas)
     po = t["per_object"]
-    t["cumulative"] = summary.cumulative_rows(po, s.n_boot, s.ci, s.seed)
-    t["per_object_summary"] = summary.per_object_summary(po, s.n_boot, s.ci, s.seed)
+    t["cumulative"] = summary.cumulative_rows(po, s.n_boot, s.ci, s.seed, s.interval)
+    t["per_object_summary"] = summary.per_object_summary(po, s.n_boot, s.ci, s.seed, s.interval)
     man_rows = manipulation.manipulation_rows(records, manipulation.load_scenes(scenes_dir, (r.scene_id for r in records)))
     t["per_manipulation"] = man_rows
-    t["manipulation_attributes"] = manipulation.attribute_table(man_rows, s.n_boot, s.ci, s.seed)
+    t["manipulation_attributes"] = manipulation.attribute_table(man_rows, s.n_boot, s.ci, s.seed, s.interval)
     inf_rows = [row for rec in records for row in stats.inference_rows(rec, s.temperature)]
-    t["semantic_accuracy"] = stats.semantic_accuracy(inf_rows, s.n_boot, s.ci, s.seed)
+    t["semantic_accuracy"] = stats.semantic_accuracy(inf_rows, s.n_boot, s.ci, s.seed, s.interval)
     t["semantic_inferences"] = inf_rows
     return t
 
@@ -178,13 +179,14 @@ def _metrics_json(records: Sequence[MissionRecord], scenes: Mapping[str, Mapping
     g = s.gammas
     dl = deliveries.delivery_metrics(records, po, pm, gamma_nav=g.nav, gamma_man=g.man,
                                      gammas=list(s.gamma_obj_values), judge=s.judge, n_boot=s.n_boot,
-                                     ci=s.ci, seed=s.seed)
+                                     ci=s.ci, seed=s.seed, method=s.interval)
     aside = {p for p, d in dl["planners"].items() if d["anchor"] or d.get("ablates")}
     claimants = [r for r in pm if r["planner"] not in aside]  # anchors and ablation variants are not judged
     calls = {stage: call_log_counts(path) for stage, path in sorted(logs.items())}
     planners = summary.planner_summaries(pm, po, failed_calls=calls.get("missions", {}).get("failed_by_planner", {}),
-                                         deliveries=dl["planners"], n_boot=s.n_boot, ci=s.ci, seed=s.seed)
-    improvement = stats.compare_planners(claimants, s.judge, "m_overall", s.n_boot, s.ci, s.seed)
+                                         deliveries=dl["planners"], n_boot=s.n_boot, ci=s.ci, seed=s.seed,
+                                         method=s.interval)
+    improvement = stats.compare_planners(claimants, s.judge, "m_overall", s.n_boot, s.ci, s.seed, s.interval)
     return {
         "planners": planners,
         "improvement": {f"{s.judge}_vs_{b}": v for b, v in improvement.items()},
@@ -193,7 +195,7 @@ def _metrics_json(records: Sequence[MissionRecord], scenes: Mapping[str, Mapping
         "gamma_obj_sensitivity": dl["gamma_obj_sensitivity"],
         "candidate_diversity": dl["candidate_diversity"],
         "mechanism": mechanism.mechanism_table(pm, tables["per_command"], dl["planners"], g.nav, s.n_boot, s.ci,
-                                               s.seed),
+                                               s.seed, s.interval),
         "semantic_accuracy": summary.semantic_summary(tables["semantic_accuracy"]),
         "manipulation": manipulation.manipulation_summary(tables["per_manipulation"]),
         "answers": capability.answer_accuracy(records, scenes),
