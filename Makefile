@@ -106,29 +106,35 @@ lint: install
 # The mechanism experiments: conf/experiment/mechanism.yaml at oracle error 0 and 0.25, and
 # conf/experiment/mechanism_model.yaml (the embedded model on the default houses); each run's
 # metrics and report are copied to data/mechanism/<run>/ (committed) and compared with the
-# committed versions (`interllm results diff`).
+# committed versions (`interllm results diff`). Resumable: a run already finished with the same
+# config, code and benchmark is skipped (resume=true; `make mechanism FRESH=1` starts over).
 MECHANISM_ERRORS ?= 0,0.25
 mechanism: install
-	rm -rf multirun/mechanism
-	$(PY) -m pipeline.run -m experiment=mechanism llm.oracle_error=$(MECHANISM_ERRORS) \
+	$(if $(FRESH),rm -rf multirun/mechanism)
+	$(PY) -m pipeline.run -m experiment=mechanism llm.oracle_error=$(MECHANISM_ERRORS) resume=true \
 	    hydra.sweep.dir=multirun/mechanism 'hydra.sweep.subdir=oracle_error_$${llm.oracle_error}'
-	$(PY) -m pipeline.run experiment=mechanism_model hydra.run.dir=multirun/mechanism/embedded
+	$(PY) -m pipeline.run experiment=mechanism_model resume=true hydra.run.dir=multirun/mechanism/embedded
 	$(PY) -m pipeline.collect_runs multirun/mechanism data/mechanism
 	$(PY) -m interllm.cli results diff --file data/mechanism/*/metrics/metrics.json
 
 # Every committed result re-made by one command, each compared with its committed version: the
 # default experiment, the sweeps and the mechanism runs (about 1.5 h on 2 cores, committed cache).
+# Interrupted, it resumes job by job: DVC skips the default run's finished stages, and every sweep
+# or mechanism job already finished with the same config, code and benchmark is skipped
+# (interllm/stages/resume.py). FRESH=1 discards the finished jobs first.
 results: repro sweeps mechanism
 
 # The sweeps: each experiment of SWEEPS runs the grid its conf/experiment/<name>.yaml declares
 # (hydra.sweeper.params) into multirun/sweeps/<name>/; the jobs' config and metrics are copied to
 # data/sweeps/<name>/<job>/ (committed), the sweep report is built from that copy into
 # data/report_sweeps/, and every job's metrics.json is compared with its committed version.
-# `make sweeps SWEEPS=oracle_sweep` re-runs one; the others' committed copies stay.
+# `make sweeps SWEEPS=oracle_sweep` re-runs one; the others' committed copies stay. Finished jobs
+# are skipped (resume=true); FRESH=1 starts every sweep of SWEEPS over (needed after a grid
+# shrinks: its old job folders would otherwise be collected too).
 SWEEPS ?= encoding_comparison oracle_sweep m_ablation temperature_ablation estimate_comparison
 sweeps: install
-	for e in $(SWEEPS); do rm -rf multirun/sweeps/$$e; \
-	    $(PY) -m pipeline.run -m experiment=$$e hydra.sweep.dir=multirun/sweeps/$$e || exit 1; done
+	for e in $(SWEEPS); do $(if $(FRESH),rm -rf multirun/sweeps/$$e;) \
+	    $(PY) -m pipeline.run -m experiment=$$e resume=true hydra.sweep.dir=multirun/sweeps/$$e || exit 1; done
 	$(PY) -m pipeline.collect_sweeps multirun/sweeps data/sweeps $(SWEEPS)
 	$(MAKE) sweep-report
 

@@ -352,6 +352,9 @@ class ExperimentConfig:
     benchmark: str = ""
     benchmark_dir: str = "data/benchmarks"
     verbose: bool = False
+    # skip a run whose folder already holds a finished run of the same config, code and benchmark
+    # (interllm/stages/resume.py): what makes `make results` resumable job by job
+    resume: bool = False
     jobs: int = 0  # worker processes for the missions stage (0: one per CPU core); results do not depend on it
     scene: SceneConfig = field(default_factory=SceneConfig)
     mission: MissionConfig = field(default_factory=MissionConfig)

@@ -22,8 +22,9 @@ from omegaconf import DictConfig, OmegaConf
 
 from interllm.config import check_api_key_env
 from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, output_error
-from interllm.io import confine_writes, exclusive_folder
+from interllm.io import confine_writes, exclusive_folder, read_json
 from interllm.stages.pipeline import run_all
+from interllm.stages.resume import FINISHED, METRICS, finished_run, job_key, mark_finished
 from interllm.stages.workers import usable_cores
 from pipeline._common import ROOT, setup_logging, write_folders
 from pipeline._hydra import CONF_DIR, to_config
@@ -51,8 +52,16 @@ def run(cfg: DictConfig) -> dict:
     resolved = OmegaConf.to_container(cfg, resolve=True)
     resolved["jobs"], resolved["llm"]["n_threads"] = typed.jobs, typed.llm.n_threads
     run_dir = Path(hc.runtime.output_dir)
+    bench = Path(typed.benchmark_dir) / typed.benchmark if typed.benchmark else None
+    key = job_key(resolved, ROOT, bench)
     with confine_writes(*write_folders(typed, run_dir)), exclusive_folder(run_dir):
-        return run_all(typed, out, resolved_config=resolved)
+        if typed.resume and finished_run(run_dir, key):
+            print(f"{run_dir}: already made with this config, code and benchmark; skipped "
+                  f"(resume=false, or delete its {FINISHED}, to make it again)", file=sys.stderr)
+            return read_json(run_dir / METRICS)
+        metrics = run_all(typed, out, resolved_config=resolved)
+        mark_finished(run_dir, key)
+        return metrics
 
 
 @hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
