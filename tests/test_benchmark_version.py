@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from interllm.config import ConfigError
-from interllm.metrics.benchmark_check import benchmark_sentence, benchmark_summary
+from interllm.metrics.benchmark_check import benchmark_summary
 from interllm.metrics.compute import MetricsInputError
+from interllm.report.benchmark import benchmark_sentence
 from interllm.scene.benchmark import BenchmarkError, open_benchmark, recheck
 from interllm.scene.graph import Command, Goal, Mission
 from interllm.scene.missions import Fulfillable, standable_start

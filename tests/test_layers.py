@@ -2,7 +2,7 @@
 closes a cycle, and an import inside a function says why (a comment starting with "lazy:").
 
     base (errors, numerics, llama_build, core, config, overrides, registry, io, progress, lifetime, lazy)
-      -> scene, llm -> planning -> sim -> record -> planners -> metrics -> stages -> cli
+      -> scene, llm -> planning -> sim -> record -> planners -> metrics -> report -> stages -> cli
 
 Imports are read from the source (ast), so the test needs nothing installed beyond the stdlib.
 """
@@ -25,6 +25,7 @@ LAYERS = [
     {"record"},
     {"planners"},
     {"metrics"},
+    {"report"},
     {"stages"},
     {"cli"},
 ]
@@ -144,3 +145,16 @@ def test_the_layer_check_fails_on_an_upward_import(tmp_path, monkeypatch):
     monkeypatch.setattr(__import__(__name__), "PKG", tmp_path / "interllm")
     with pytest.raises(AssertionError, match=r"scene/bad.py:1: scene \(layer 1\) imports interllm.planners.base"):
         test_imports_only_run_down_the_layers()
+
+
+def test_the_metrics_compute_and_the_report_writes():
+    """``interllm.metrics`` holds the numbers only: none of its modules imports matplotlib or the
+    report, or writes Markdown, HTML or pictures (the report package does)."""
+    writes = ("savefig", ".md\"", ".html\"", ".png\"", "imsave")
+    for name, path in modules().items():
+        if not name.startswith("interllm.metrics"):
+            continue
+        src = path.read_text(encoding="utf-8")
+        bad = [m for m, *_ in imports(path) if m.startswith(("matplotlib", "interllm.report"))]
+        bad += [w for w in writes if w in src]
+        assert not bad, f"{path.relative_to(ROOT)} draws or writes the report: {bad}"

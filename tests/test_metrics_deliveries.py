@@ -178,7 +178,7 @@ def test_break_even_gamma_obj_on_a_constructed_example():
     assert c["by_gamma"]["100"]["diff"] == pytest.approx(0.0, abs=1e-9)
     assert c["by_gamma"]["50"]["diff"] == pytest.approx(100.0) and c["by_gamma"]["500"]["diff"] == pytest.approx(-800.0)
     assert s["planners"]["inter_llm"]["m_overall"]["500"] == pytest.approx(3 * 200.5 + 500.0)
-    from interllm.metrics.delivery_sections import break_even_text
+    from interllm.report.costs import break_even_text
     assert break_even_text(c, "inter_llm").startswith("100.0: ")
 
 
@@ -257,7 +257,7 @@ def test_aggregate_writes_deliveries_position_and_the_anchors(runs):
 
 
 def test_the_report_leads_with_deliveries_and_positions(runs):
-    from interllm.metrics.report import build_report
+    from interllm.report.build import build_report
 
     cfg = from_dict({"metrics": {"bootstrap_samples": 200}})
     write_metrics(runs / "runs", runs / "scenes", cfg, runs / "metrics")
@@ -288,7 +288,7 @@ def test_the_report_leads_with_deliveries_and_positions(runs):
 
 
 def test_missing_feasibility_is_said(tmp_path):
-    from interllm.metrics.delivery_sections import feasibility_sentence
+    from interllm.report.headline import feasibility_sentence
 
     s = feasibility_sentence(tmp_path, ["s0"], {})
     assert "No feasibility.json" in s and "s0" in s
@@ -296,7 +296,7 @@ def test_missing_feasibility_is_said(tmp_path):
 
 # ---- 8. encodings of a multirun -------------------------------------------------------------------
 def test_encoding_runs_are_found_paired_and_reported(runs):
-    from interllm.metrics.report import build_report
+    from interllm.report.build import build_report
     from interllm.stages.report import find_encoding_results, find_oracle_results
 
     cfg = from_dict({"metrics": {"bootstrap_samples": 200}})
@@ -368,7 +368,7 @@ def test_a_hostile_planner_table_is_escaped_or_refused(runs):
     """planners.json is input the report trusts as little as any: a label is text (escaped in the
     HTML), a colour matplotlib does not know stops the report with the file and the fix."""
     from interllm.errors import UserError
-    from interllm.metrics.report import build_report
+    from interllm.report.build import build_report
 
     table = shown_planners(PLANNERS_RUN)
     table["sayplan"]["label"] = "<script>alert(1)</script>"

@@ -116,7 +116,7 @@ def test_metrics_json_byte_identical(experiment):
 
 
 def test_report_builds(experiment, monkeypatch):
-    from interllm.metrics.report import build_report
+    from interllm.report.build import build_report
 
     root, cfg = experiment
     monkeypatch.chdir(root)  # as a DVC stage runs at the project root
@@ -153,7 +153,7 @@ def test_report_builds(experiment, monkeypatch):
 
 
 def test_report_missing_metrics_names_stage(tmp_path):
-    from interllm.metrics.report import build_report
+    from interllm.report.build import build_report
 
     with pytest.raises(FileNotFoundError, match="aggregate"):
         build_report(tmp_path, tmp_path, tmp_path, tmp_path / "out", ExperimentConfig())
@@ -162,7 +162,7 @@ def test_report_missing_metrics_names_stage(tmp_path):
 @pytest.mark.parametrize("lo, hi, verdict", [(2.0, 9.0, " holds on our runs"), (-4.6, 5.7, "cannot be told"),
                                              (-9.0, -2.0, "does not hold")])
 def test_the_ordering_is_judged_by_the_paired_intervals_not_the_mean_rank(lo, hi, verdict):
-    from interllm.metrics.summary_sections import ordering_sentence
+    from interllm.report.headline import ordering_sentence
 
     metrics = {"planners": {"inter_llm": {"m_overall": 100.0}, "sayplan": {"m_overall": 101.0}},
                "improvement": {"inter_llm_vs_sayplan": {"pct": 1.0, "ci_lo": lo, "ci_hi": hi}}}
@@ -170,7 +170,7 @@ def test_the_ordering_is_judged_by_the_paired_intervals_not_the_mean_rank(lo, hi
 
 
 def test_estimate_variants_are_paired_against_this_run(experiment):
-    from interllm.metrics.report import build_report
+    from interllm.report.build import build_report
 
     root, cfg = experiment
     mdir = root / "m1"

@@ -95,7 +95,7 @@ def test_every_module_a_stage_loads_is_among_its_dvc_deps(quick_repo):
 
 @pytest.mark.parametrize("module, reruns", [
     ("interllm/metrics/compute.py", {"aggregate", "report"}),  # a metric formula: no re-simulation
-    ("interllm/metrics/summary_sections.py", {"report"}),  # a report section: the metrics stand
+    ("interllm/report/verdicts.py", {"report"}),  # a report section: the metrics stand
     ("interllm/planners/moma_llm.py", {"candidates", "missions"}),  # a planner: its runs, not the scenes
 ])
 def test_editing_a_module_leaves_every_stage_that_does_not_run_it_up_to_date(quick_repo, module, reruns):

@@ -9,11 +9,12 @@ from helpers.planners import FakeScoreClient, ListRecorder, SymbolicWorld, two_a
 
 from interllm.config import ExperimentConfig
 from interllm.core.actions import Action, State
-from interllm.metrics import claims, mechanism, mechanism_sections
+from interllm.metrics import claims, mechanism
 from interllm.planners.base import shown_planners
 from interllm.planners.candidates import generate_initial_candidates
 from interllm.planners.runner import run_mission
 from interllm.planning.memory import KnownCosts
+from interllm.report import mechanism as mechanism_report
 
 VARIANTS = ("inter_llm_no_learning", "inter_llm_no_cost_choice", "inter_llm_no_carry_over")
 
@@ -109,7 +110,7 @@ def test_the_mechanism_table_pairs_each_variant_with_the_full_planner_by_hand():
     curve = d["by_command"]
     assert [r["command_index"] for r in curve] == [1, 2, 3]
     assert [r["n_fulfilled_diff"] for r in curve] == [0.0, 1.0, 1.0]  # the same first command, then learning
-    assert mechanism_sections._verdict(d) == "helps"
+    assert mechanism_report._verdict(d) == "helps"
     assert mechanism.mechanism_table(full_m, full_c, {"inter_llm": {}}, 10.0) == {}
 
 
@@ -126,8 +127,8 @@ def test_ablation_variants_are_neither_claimants_nor_baselines_of_the_papers_cla
 def test_a_variant_that_delivers_less_is_reported_as_a_part_that_helps():
     d = {"n_fulfilled_diff_ci_lo": 0.2, "n_fulfilled_diff_ci_hi": 1.0, "m_overall_diff_ci_lo": 10.0,
          "m_overall_diff_ci_hi": 50.0}
-    assert mechanism_sections._verdict(d) == "helps"  # deliveries first
-    assert mechanism_sections._verdict({**d, "n_fulfilled_diff_ci_lo": -0.5}) == "hurts"
-    assert mechanism_sections._verdict({**d, "n_fulfilled_diff_ci_lo": -0.5, "m_overall_diff_ci_lo": -1.0}) == \
+    assert mechanism_report._verdict(d) == "helps"  # deliveries first
+    assert mechanism_report._verdict({**d, "n_fulfilled_diff_ci_lo": -0.5}) == "hurts"
+    assert mechanism_report._verdict({**d, "n_fulfilled_diff_ci_lo": -0.5, "m_overall_diff_ci_lo": -1.0}) == \
         "cannot tell"
-    assert mechanism_sections._verdict({}) == "cannot tell"  # no interval: nothing is claimed
+    assert mechanism_report._verdict({}) == "cannot tell"  # no interval: nothing is claimed

@@ -1,4 +1,4 @@
-"""Metrics of executed missions (paper §V) and the report built from them.
+"""Metrics of executed missions (paper §V): the numbers, never their prose or pictures.
 
 - ``compute``: per-object/command/mission tables and m_overall; ``summary``: per planner means
   with bootstrap CIs; ``stats``: bootstrap CIs, paired planner comparison, semantic-similarity
@@ -6,9 +6,10 @@
   nothing, the optimal reference), the γ_obj sensitivity and candidate diversity; ``planner_info``:
   how the runs show each planner and which are anchors (no planner code is loaded);
   ``manipulation``, ``capability``, ``claims``, ``llm_usage``, ``compare``.
-- The report (``report.build_report``; it pulls in matplotlib): the document model ``doc``, the
-  sections ``delivery_sections``, ``summary_sections``, ``paper_tables``, ``figure_sections`` and
-  ``sweep_sections``, the figures ``plots``.
+- ``cluster_t``: CR2 t intervals clustered by house; ``benchmark_check``: what the simulator
+  measures differently from the frozen benchmark; ``mechanism``: the ablation variants' paired
+  differences.
+- The report built from these numbers is the package ``interllm.report``.
 
 The aggregate and report stages that call them are ``interllm.stages.aggregate`` and
 ``interllm.stages.report``.

@@ -11,8 +11,8 @@ import yaml
 from interllm.config import ExperimentConfig
 from interllm.config_planners import upgrade_legacy_planner_keys
 from interllm.metrics.compare import flatten
-from interllm.metrics.report import build_report
-from interllm.metrics.sweep_sections import ENCODING_DEFAULTS, ENCODING_KEYS, encoding_label
+from interllm.report.build import build_report
+from interllm.report.sweeps import ENCODING_DEFAULTS, ENCODING_KEYS, encoding_label
 
 
 def run_report(cfg: ExperimentConfig, metrics_dir: Path, scenes_dir: Path, runs_dir: Path,

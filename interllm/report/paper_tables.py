@@ -12,11 +12,11 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Optional
 
-from interllm.metrics import plots
 from interllm.metrics.compute import read_csv
-from interllm.metrics.doc import Doc, fnum, ordered, pct
 from interllm.metrics.stats import LABELS, confusion_matrix
-from interllm.metrics.sweep_sections import with_metrics
+from interllm.report import plots
+from interllm.report.document import Doc, fnum, ordered, pct
+from interllm.report.sweeps import with_metrics
 
 # Paper Table III ("Comprehensive metric results of algorithm comparison", Yang et al.,
 # "Interleaved LLM and Motion Planning for Generalized Multi-Object Collection in Large Scene

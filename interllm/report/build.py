@@ -2,23 +2,26 @@
 base64) built from the files the aggregate stage wrote (``metrics.json``, ``per_object.csv``,
 ``per_command.csv``, ``cumulative.csv``, ``per_object_summary.csv``, ``semantic_accuracy.csv``).
 
-``build_report`` puts the sections in order; each comes from its module:
+``build_report`` puts the sections in order; each part of the report is one module of this package:
 
-- ``delivery_sections``: the headline table (objects delivered, m_overall, the position between
-  the anchors, doing nothing and the optimal reference, cost per delivered object), the γ_obj sensitivity,
-  candidate diversity, the LLM requests per command;
-- ``summary_sections``: the paper's claims with the delivery check, the summary per planner with
-  the paired improvement and whether the paper's ordering (the judged planner, Inter-LLM by
-  default, lowest m_overall) holds, the
+- ``headline``: the headline table (objects delivered, m_overall, the position between the
+  anchors, doing nothing and the optimal reference, cost per delivered object), the paired
+  differences with their per-house effects, and the summary per planner with whether the
+  paper's ordering (the judged planner, Inter-LLM by default, lowest m_overall) holds;
+- ``verdicts``: the paper's claims with the delivery check and their verdicts;
+- ``costs``: the γ_obj sensitivity, candidate diversity, the LLM requests per command, the
   measured manipulation costs;
 - ``paper_tables``: the paper's Table III layout with our means beside the paper's numbers, and
   Table II (semantic accuracy per temperature);
-- ``figure_sections``: the cumulative overall-metric figure, per-object bars, the path-similarity
-  illustration, scene pictures, trajectories, run MCAPs with the replay command;
-- ``sweep_sections``: the M ablation, the cost-estimate variants, the oracle sweep and the cost
+- ``figures``: the cumulative overall-metric figure, per-object bars, the path-similarity
+  illustration, scene pictures, trajectories, run MCAPs with the replay command (``plots`` draws);
+- ``mechanism``: the ablation variants against the full planner;
+- ``sweeps``: the M ablation, the cost-estimate variants, the oracle sweep and the cost
   encodings when multirun result folders are given.
 
-The document model and cell formatters are in ``doc``.
+The document model and cell formatters are in ``document``. Every statistic is computed by
+``interllm.metrics`` (the sweep and claim sections call it on the committed per-mission tables);
+this package only formats and draws.
 """
 
 from __future__ import annotations
@@ -30,19 +33,12 @@ from typing import Any
 
 from interllm.errors import MissingInputError
 from interllm.io import atomic_write_text, ensure_dir, read_json
-from interllm.metrics import (
-    delivery_sections,
-    figure_sections,
-    mechanism_sections,
-    paper_tables,
-    planner_info,
-    summary_sections,
-    sweep_sections,
-)
-from interllm.metrics.benchmark_check import benchmark_sentence
+from interllm.metrics import planner_info
 from interllm.metrics.compute import read_csv
-from interllm.metrics.doc import Doc
 from interllm.metrics.stats import interval_method
+from interllm.report import costs, figures, headline, mechanism, paper_tables, sweeps, verdicts
+from interllm.report.benchmark import benchmark_sentence
+from interllm.report.document import Doc
 
 TITLE = "Inter-LLM experiment report"
 
@@ -63,7 +59,7 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
     estimate_results: (planner.inter_llm.nav_estimate, metrics_dir) pairs; oracle_results:
     (llm.oracle_error, metrics_dir) pairs of an oracle sweep on the same missions;
     encoding_results: (group, variant, metrics_dir) of runs differing only in llm.oracle_costs and/or
-    planner.inter_llm.cost_encoding (``sweep_sections.encoding_section``).
+    planner.inter_llm.cost_encoding (``sweeps.encoding_section``).
     The judged planner and how each planner is shown (label, colour, order, anchor) come from
     metrics.json (``settings.judge``, ``planners``): the report reads results, not planner code.
     Returns {"markdown", "html", "figures"} paths.
@@ -97,42 +93,42 @@ def _write_report(metrics: dict, judge: str, metrics_dir: Path, scenes_dir: Path
     _title(doc, metrics.get("settings", {}))
     doc.p(benchmark_sentence(metrics.get("benchmark", {})))
 
-    delivery_sections.headline_section(doc, metrics, Path(scenes_dir), scene_ids, judge)
-    summary_sections.claims_section(doc, metrics, metrics_dir, [Path(d) for _, d in temperature_results], judge)
-    summary_sections.summary_section(doc, metrics, judge)
-    delivery_sections.gamma_obj_section(doc, metrics, judge)
-    delivery_sections.diversity_section(doc, metrics)
+    headline.headline_section(doc, metrics, Path(scenes_dir), scene_ids, judge)
+    verdicts.claims_section(doc, metrics, metrics_dir, [Path(d) for _, d in temperature_results], judge)
+    headline.summary_section(doc, metrics, judge)
+    costs.gamma_obj_section(doc, metrics, judge)
+    costs.diversity_section(doc, metrics)
     if (metrics_dir / "llm_usage.json").is_file():
-        delivery_sections.llm_usage_section(doc, read_json(metrics_dir / "llm_usage.json"))
+        costs.llm_usage_section(doc, read_json(metrics_dir / "llm_usage.json"))
     paper_tables.table_iii_section(doc, per_object, per_command)
-    summary_sections.manipulation_section(doc, metrics.get("manipulation", {}),
+    costs.manipulation_section(doc, metrics.get("manipulation", {}),
                                           metrics_dir / "manipulation_attributes.csv")
 
     eps = float(cfg.planner.inter_llm.epsilon_d) if cfg is not None else 1.0
-    figures = figure_sections.metric_figures(doc, cumulative, summary, fig_dir, eps)
-    figure_sections.scenes_section(doc, scenes_dir, scene_ids)
-    figures += figure_sections.trajectories_section(doc, runs_dir, scene_ids, fig_dir)
-    figure_sections.run_logs_section(doc, runs_dir, out_dir)
+    made = figures.metric_figures(doc, cumulative, summary, fig_dir, eps)
+    figures.scenes_section(doc, scenes_dir, scene_ids)
+    made += figures.trajectories_section(doc, runs_dir, scene_ids, fig_dir)
+    figures.run_logs_section(doc, runs_dir, out_dir)
 
     per_mission = read_csv(metrics_dir / "per_mission.csv") if (metrics_dir / "per_mission.csv").is_file() else []
-    f = mechanism_sections.mechanism_section(doc, metrics, per_mission, fig_dir)
+    f = mechanism.mechanism_section(doc, metrics, per_mission, fig_dir)
     if f is not None:
-        figures.append(f)
+        made.append(f)
     paper_tables.table_ii_section(doc, metrics_dir, temperature_results)
-    sweep_sections.m_ablation_section(doc, m_results, judge)
-    sweep_sections.estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], judge,
+    sweeps.m_ablation_section(doc, m_results, judge)
+    sweeps.estimates_section(doc, metrics_dir, [(lab, Path(d)) for lab, d in estimate_results], judge,
                                      cfg.planner.inter_llm.nav_estimate if cfg is not None else "this run's estimate")
-    f = sweep_sections.capability_section(doc, metrics, [(float(e), Path(d)) for e, d in oracle_results], fig_dir,
+    f = sweeps.capability_section(doc, metrics, [(float(e), Path(d)) for e, d in oracle_results], fig_dir,
                                           judge)
     if f is not None:
-        figures.append(f)
-    sweep_sections.encoding_section(doc, [(g, v, Path(d)) for g, v, d in encoding_results], metrics, judge)
+        made.append(f)
+    sweeps.encoding_section(doc, [(g, v, Path(d)) for g, v, d in encoding_results], metrics, judge)
 
     ensure_dir(out_dir)
     md, ht = out_dir / "report.md", out_dir / "report.html"
     atomic_write_text(md, doc.markdown(out_dir))
     atomic_write_text(ht, doc.html(TITLE))
-    return {"markdown": md, "html": ht, "figures": figures}  # type: ignore[dict-item]
+    return {"markdown": md, "html": ht, "figures": made}  # type: ignore[dict-item]
 
 
 def _title(doc: Doc, s: Mapping) -> None:

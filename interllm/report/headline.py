@@ -1,14 +1,12 @@
-"""The report's delivery sections, from metrics.json (``interllm.metrics.deliveries``):
+"""The report's first part: the headline table and what it rests on.
 
-- ``headline_section``: the first table of the report: per planner objects delivered [CI],
-  m_overall [CI], the normalised position between the anchors, doing nothing (0) and the optimal
-  reference (1) [CI], whether m_overall lies significantly below doing nothing's, and the execution cost
-  per delivered object; the paired differences between the planners; the slots the scenes
+- ``headline_section``: per planner objects delivered [CI], m_overall [CI], the normalised
+  position between the anchors, doing nothing (0) and the optimal reference (1) [CI], whether
+  m_overall lies significantly below doing nothing's, and the execution cost per delivered object;
+  the paired differences between the planners with their per-house effects; the slots the scenes
   stage measured as deliverable (``feasibility.json``);
-- ``gamma_obj_section``: mean m_overall per mission at each γ_obj of
-  ``metrics.gamma_obj_sensitivity``, the paired differences and the break-even γ_obj;
-- ``diversity_section``: the share of commands whose plan candidates take different objects;
-- ``llm_usage_section``: the LLM requests and prompt tokens per command of each planner, by phase.
+- ``summary_section``: the summary per planner with the paired improvement and whether the
+  paper's ordering (the judged planner lowest on m_overall) holds (``ordering_sentence``).
 """
 
 from __future__ import annotations
@@ -19,12 +17,13 @@ from pathlib import Path
 from typing import Any, Optional
 
 from interllm.io import read_json
-from interllm.metrics import plots
-from interllm.metrics.deliveries import NOTHING, OPTIMAL, gamma_key
-from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
+from interllm.metrics import claims
+from interllm.metrics.deliveries import NOTHING, OPTIMAL
+from interllm.report import plots
+from interllm.report.document import Doc, ci, fnum, num_or_nan, ordered, pct
 
 
-def _split(planners: Mapping[str, Mapping]) -> tuple[list[str], list[str]]:
+def split_planners(planners: Mapping[str, Mapping]) -> tuple[list[str], list[str]]:
     """(claimants, anchors) in report order."""
     refs = [p for p in ordered(planners) if planners[p].get("anchor", planners[p].get("reference"))]
     return [p for p in ordered(planners) if p not in refs], refs
@@ -46,7 +45,7 @@ def _below_cell(p: str, d: Mapping) -> str:
     return txt + (": yes" if b is True else ": no" if b is False else "")
 
 
-def _against_anchor(comparison: Mapping) -> bool:
+def against_anchor(comparison: Mapping) -> bool:
     """Whether a comparison's baseline is an anchor (listed after the others)."""
     return bool(comparison.get("baseline_anchor", comparison.get("baseline_reference")))
 
@@ -75,7 +74,7 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
     """The headline table (deliveries beside m_overall, the position between the anchors), the
     paired differences, and the deliverable slots of the scenes."""
     pl = metrics.get("planners", {})
-    claimants, refs = _split(pl)
+    claimants, refs = split_planners(pl)
     missing = _missing_anchors(metrics)
     with_pos, with_null = not missing, NOTHING not in missing
     doc.h(2, "Headline: objects delivered, m_overall and position")
@@ -114,7 +113,7 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
         doc.p(f"Paired differences per mission, {plots.label(judge)} − other planner, on the missions both ran "
               "(negative m_overall: cheaper; negative delivered: fewer objects):")
         crow = []
-        for k in sorted(comps, key=lambda k: (_against_anchor(comps[k]), k)):
+        for k in sorted(comps, key=lambda k: (against_anchor(comps[k]), k)):
             c = comps[k]
             b = str(c.get("baseline", k.split("_vs_", 1)[1]))
             crow.append([f"{plots.label(judge)} − {plots.label(b)}", str(c.get("n_pairs")),
@@ -208,95 +207,71 @@ def feasibility_sentence(scenes_dir: Path, scene_ids: Sequence[str], planners: M
     return " ".join(parts) or f"No scenes to read feasibility.json for under {scenes_dir}."
 
 
-# ---- γ_obj -----------------------------------------------------------------------------------
-def break_even_text(c: Mapping, judge: str) -> str:
-    """"γ_obj = 154: Inter-LLM cheaper above it" or "never: ... at every γ_obj ≥ 0"."""
-    ref, b = plots.label(judge), plots.label(str(c.get("baseline")))
-    be = c.get("break_even")
-    if be is None:
-        de = num_or_nan(c.get("exec_diff"))
-        if math.isnan(de):
-            return "–"
-        who = ref if de < 0 else b if de > 0 else None
-        return "never" + (f" ({who} cheaper at every γ_obj ≥ 0)" if who else " (equal at every γ_obj)")
-    above = c.get("judged_lower_above", c.get("reference_lower_above"))
-    return (f"{fnum(be)}: {ref} cheaper " + ("above" if above else "below") + f" it, {b} "
-            + ("below" if above else "above"))
+def ordering_sentence(metrics: Mapping, judge: str) -> str:
+    """One sentence: does the paper's ordering (the judged planner best on m_overall among the
+    planners) hold? Judged as ``claims.ordering`` does: it holds when every paired improvement of
+    the judged planner has its CI above 0 and it does not deliver significantly fewer objects, does not
+    hold when one has its CI below 0 (or the lower m_overall came from delivering fewer objects),
+    and otherwise the runs cannot tell (the mean rank alone decides nothing)."""
+    refs = claims.set_aside(metrics)
+    pl = {p: d for p, d in metrics.get("planners", {}).items() if p not in refs}
+    if judge not in pl or len(pl) < 2:
+        return (f"The paper's ordering ({plots.label(judge)} best on m_overall) cannot be judged: "
+                f"runs exist only for {sorted(pl)}.")
+    ranked = sorted(pl, key=lambda p: (float("inf") if pl[p].get("m_overall") is None else pl[p]["m_overall"], p))
+    figs = "; ".join(f"{plots.label(p)} {fnum(pl[p].get('m_overall'))} [{fnum(pl[p].get('m_overall_ci_lo'))}, "
+                     f"{fnum(pl[p].get('m_overall_ci_hi'))}]" for p in ranked)
+    o = claims.ordering(metrics)
+    imps = "; ".join(f"{plots.label(judge)} vs {plots.label(b)}: {fnum(v[0])}% [{fnum(v[1])}, {fnum(v[2])}]"
+                     for b, v in sorted(o["improvements"].items()))
+    verdict = {"holds": "holds on our runs", "does not hold": "does not hold on our runs",
+               claims.FEWER: "does not hold on our runs: its lower m_overall comes from delivering fewer objects",
+               }.get(o["verdict"], "cannot be told on our runs (a paired CI includes 0 or has too few pairs)")
+    best = "the lowest" if ranked[0] == judge else "not the lowest"
+    return (f"The paper's ordering ({plots.label(judge)} best on m_overall per mission, judged by the paired "
+            f"CIs and the delivery check) {verdict}; its mean is {best}: {figs} (mean per mission, "
+            f"{len(pl)} planners, anchors aside; bootstrap CI)." + (f" Paired improvement: {imps}." if imps else ""))
 
 
-def gamma_obj_section(doc: Doc, metrics: Mapping, judge: str) -> None:
-    """Each planner's mean m_overall per mission at each γ_obj, the paired differences and break-evens."""
-    s = metrics.get("gamma_obj_sensitivity", {})
-    gs = s.get("gammas") or []
-    if not gs or not s.get("planners"):
-        return
+def summary_section(doc: Doc, metrics: Mapping, judge: str) -> None:
+    """Every per-planner figure, objects delivered and the cost per delivered object beside m_overall;
+    failed LLM calls; the paired improvements."""
     pl = metrics.get("planners", {})
-    cur = metrics.get("settings", {}).get("gamma_obj")
-    doc.h(2, "Sensitivity to γ_obj")
-    doc.p("m_overall is linear in γ_obj: per mission m(γ) = E + γ·U with E = Σ_slots γ_nav·cc + t_exe + d + "
-          "γ_man·(1 − sr_man) [s] and U the undelivered slots, recomputed here from the per-slot rows (this run "
-          f"uses γ_obj = {fnum(cur, 0)}). Mean m_overall per mission [s]:")
-    header = ["planner", "E [s]", "U [slots]"] + [f"γ_obj = {gamma_key(g)}" for g in gs]
+    doc.h(2, "Summary per planner")
+    doc.p(ordering_sentence(metrics, judge))
     rows = []
-    claimants, refs = _split({p: pl.get(p, {}) for p in s["planners"]})
-    for p in claimants + refs:
-        d = s["planners"][p]
-        rows.append([plots.label(p), fnum(d.get("exec")), fnum(d.get("undelivered"), 2)]
-                    + [fnum(d.get("m_overall", {}).get(gamma_key(g))) for g in gs])
-    doc.table(header, rows)
-    comps = s.get("comparisons", {})
-    if comps:
-        doc.p(f"Paired difference {plots.label(judge)} − other per mission at each γ_obj [CI] (negative: "
-              f"{plots.label(judge)} cheaper) and the break-even γ_obj where the mean difference "
-              "Δ(γ) = Δ_E + γ·Δ_U crosses 0 (\"never\" when it does not for γ_obj ≥ 0):")
-        crow = []
-        for k in sorted(comps, key=lambda k: (_against_anchor(comps[k]), k)):
-            c = comps[k]
-            by = c.get("by_gamma", {})
-            crow.append([f"{plots.label(judge)} − {plots.label(str(c.get('baseline')))}", str(c.get("n_pairs")),
-                         f"{fnum(c.get('exec_diff'))} + γ·({fnum(c.get('undelivered_diff'), 2)})"]
-                        + [ci(by.get(gamma_key(g), {}).get("diff"), by.get(gamma_key(g), {}).get("ci_lo"),
-                              by.get(gamma_key(g), {}).get("ci_hi"), sign=True) for g in gs]
-                        + [break_even_text(c, judge)])
-        doc.table(["comparison", "pairs", "Δ(γ) = Δ_E + γ·Δ_U"] + [f"γ_obj = {gamma_key(g)}" for g in gs]
-                  + ["break-even γ_obj"], crow)
-
-
-# ---- candidate diversity ---------------------------------------------------------------------
-def diversity_section(doc: Doc, metrics: Mapping) -> None:
-    """The share of commands whose candidates take different objects, per planner with candidates."""
-    div = metrics.get("candidate_diversity", {})
-    if not div:
-        return
-    doc.h(2, "Candidate diversity")
-    doc.p("Commands with plan candidates, and the share whose candidates take different objects (at least two "
-          "distinct sets of picked-up objects among them): choosing between candidates can only change what is "
-          "delivered when they differ.")
-    doc.table(["planner", "commands with candidates", "candidates / command", "with different objects", "share"],
-              [[plots.label(p), str(d.get("n_commands")), fnum(d.get("candidates_per_command"), 2),
-                str(d.get("n_diverse")), pct(d.get("share"))] for p, d in ((p, div[p]) for p in ordered(div))])
-
-
-def llm_usage_section(doc: Doc, usage: Mapping) -> None:
-    """The LLM requests and prompt tokens per command of each planner, by phase (``metrics.llm_usage``),
-    and in generate mode the room selections and the share of commands whose selection was widened."""
-    runs = usage.get("missions", {})
-    if not runs:
-        return
-    doc.h(2, "LLM requests per command, by phase")
-    doc.p("Every request the missions stage made (answered from the cache or not), per command the planner ran: "
-          "requests / prompt tokens. A room selection (generate mode) counts in the phase of the plan request it "
-          "serves; the selection columns say how many there were and the share of commands whose selection had "
-          "to be widened (data/metrics/llm_usage.json).")
-    phases = ("proposal", "repair", "replan", "cost_inference")
-    rows = []
-    for p in ordered(runs):
-        u, sel = runs[p], runs[p].get("room_selection", {})
-        cells = []
-        for ph in phases:
-            d = u.get("phases", {}).get(ph, {}).get("per_command")
-            cells.append("–" if d is None else f"{fnum(d['requests'], 2)} / {fnum(d['tokens_in'], 0)}")
-        rows.append([plots.label(p), str(u.get("commands")), *cells,
-                     f"{fnum(u['per_command']['requests'], 2)} / {fnum(u['per_command']['tokens_in'], 0)}",
-                     fnum(u["per_command"].get("selection_requests"), 2), pct(sel.get("widened_share"))])
-    doc.table(["planner", "commands", *phases, "all", "room selections / command", "widened"], rows)
+    for p in ordered(pl):
+        d = pl[p]
+        rows.append([plots.label(p), str(d.get("n_missions")),
+                     f"{fnum(d.get('m_overall'))} [{fnum(d.get('m_overall_ci_lo'))}, {fnum(d.get('m_overall_ci_hi'))}]",
+                     f"{d.get('delivered', d.get('n_fulfilled'))}/{d.get('n_objects')}",
+                     ci(d.get("delivered_per_mission"), d.get("delivered_per_mission_ci_lo"),
+                                 d.get("delivered_per_mission_ci_hi"), 2),
+                     fnum(d.get("exec_cost_per_delivered")), fnum(d.get("m_overall_per_object")),
+                     pct(d.get("sr_obj")), fnum(d.get("cc"), 2), fnum(d.get("d")), fnum(d.get("t_exe")),
+                     pct(d.get("sr_man")), fnum(d.get("llm_calls_per_mission")),
+                     fnum(d.get("llm_tokens_in_per_mission"), 0), fnum(d.get("llm_tokens_out_per_mission"), 0)])
+    doc.p("Scoring rule: a command asking for n objects has n slots, the k-th distinct object the planner "
+          "manipulated in it; a slot it never filled scores sr_man = 0 and sr_obj = 0 with no time or "
+          "distance (m_overall = γ_man + γ_obj), as the paper's Table III scores an object it did not "
+          "deliver (0%, ×). sr_obj counts an object when the robot delivered it in the command (a successful "
+          "place) onto a target furniture, its category is one the command asks for (from the scene graph), and "
+          "it did not stand on a target when the command began (no goal; a pick-and-put-back is no progress). "
+          "Objects beyond the n-th (a replacement after a failure) add their costs to slot n and, when delivered, "
+          "fill an earlier unfulfilled slot: a command counts min(n, distinct objects delivered).")
+    doc.table(["planner", "missions", "m_overall / mission [CI]", "delivered", "delivered / mission [CI]",
+               "cost / delivered [s]", "m_overall / object", "sr_obj", "cc / mission", "d [m] / mission",
+               "t_exe [s] / mission", "sr_man", "LLM calls / mission", "tokens in / mission",
+               "tokens out / mission"], rows)
+    calls = metrics.get("llm_calls", {})
+    if calls:
+        doc.p("LLM calls that failed (an answer still unparseable after the repair retries, or a backend "
+              "error; a stage stops above llm.max_failure_share): " + "; ".join(
+                  f"{stage} stage {c.get('failed', 0)} of {c.get('calls', 0)}" for stage, c in sorted(calls.items()))
+              + "; per planner in the missions stage: " + ", ".join(
+                  f"{plots.label(p)} {pl[p].get('llm_failed_calls', 0)}" for p in ordered(pl)) + ".")
+    imp = metrics.get("improvement", {})
+    if imp:
+        doc.table(["comparison", "pairs", "improvement % of baseline m_overall [CI]"],
+                  [[k, str(v.get("n_pairs")), f"{fnum(v.get('pct'))} [{fnum(v.get('ci_lo'))}, {fnum(v.get('ci_hi'))}]"]
+                   for k, v in sorted(imp.items())])

@@ -13,11 +13,12 @@ from typing import Optional
 
 from interllm.core.seeding import bootstrap_seed
 from interllm.io import read_json
-from interllm.metrics import capability, claims, plots
+from interllm.metrics import capability, claims
 from interllm.metrics.compute import read_csv
 from interllm.metrics.deliveries import paired_runs
-from interllm.metrics.doc import Doc, ci, fnum, num_or_nan, ordered, pct
 from interllm.metrics.stats import houses_of, interval_method, paired_improvement
+from interllm.report import plots
+from interllm.report.document import Doc, ci, fnum, num_or_nan, ordered, pct
 
 ENCODING_KEYS = ("llm.oracle_costs", "planner.inter_llm.cost_encoding")
 ENCODING_DEFAULTS = ("classes", "paper")  # the paper's: three cost classes, the paper's text encoding

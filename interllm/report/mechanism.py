@@ -6,9 +6,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from interllm.metrics import claims, plots
-from interllm.metrics.doc import Doc, ci, fnum
-from interllm.metrics.summary_sections import houses_text
+from interllm.metrics import claims
+from interllm.report import plots
+from interllm.report.document import Doc, ci, fnum
+from interllm.report.verdicts import houses_text
 
 
 def mechanism_section(doc: Doc, metrics: Mapping, per_mission: Sequence[Mapping], fig_dir: Path) -> Path | None:

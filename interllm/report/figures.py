@@ -8,9 +8,9 @@ import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from interllm.metrics import plots
-from interllm.metrics.doc import Doc, ordered, rel
 from interllm.record.figures import mission_trajectories_figure
+from interllm.report import plots
+from interllm.report.document import Doc, ordered, rel
 
 
 def metric_figures(doc: Doc, cumulative: Sequence[Mapping], summary: Sequence[Mapping], fig_dir: Path,
