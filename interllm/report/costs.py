@@ -140,7 +140,7 @@ def manipulation_section(doc: Doc, summary: Mapping, attributes_csv: Path) -> No
     attrs = read_csv(attributes_csv) if attributes_csv.is_file() else []
     if attrs:
         doc.p("Pickups by the placement of their object (where the scene put it; the generator's label and the "
-              "attributes the cost-inference prompts carry): mean c_man with its 95% bootstrap CI.")
+              "attributes the cost-inference prompts carry): mean c_man with its 95% CI.")
         doc.table(["attribute", "bin", "pickups", "c_man [CI]", "mean sr_man", "hard"],
                   [[str(r["attribute"]), str(r["bin"]), str(r["n"]),
                     f"{fnum(r['c_man'])} [{fnum(r['ci_lo'])}, {fnum(r['ci_hi'])}]", fnum(r["sr_man"], 2),

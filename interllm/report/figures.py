@@ -21,14 +21,14 @@ def metric_figures(doc: Doc, cumulative: Sequence[Mapping], summary: Sequence[Ma
     doc.h(2, "Overall metric along the mission")
     f = plots.cumulative_figure(cumulative, fig_dir / "cumulative_m_overall.png")
     figures.append(f)
-    doc.img(f, "Cumulative m_overall per object index (mean over missions, bootstrap CI band)")
+    doc.img(f, "Cumulative m_overall per object index (mean over missions, CI band)")
     doc.h(2, "Per-object metrics")
     max_idx = 9 if any(int(r["object_index"]) > 9 for r in summary) else None
     for metric, ylab in (("m_overall", "m_overall"), ("t_exe", "t_exe [s]"), ("cc", "collisions"),
                          ("sr_obj", "sr_obj")):
         f = plots.per_object_bars(summary, metric, fig_dir / f"per_object_{metric}.png", ylab, max_idx)
         figures.append(f)
-        doc.img(f, f"{ylab} per object (mean, bootstrap CI)")
+        doc.img(f, f"{ylab} per object (mean, CI)")
     doc.h(2, "Path similarity P°")
     f, note = plots.path_similarity_figure(fig_dir / "path_similarity.png", eps)
     if f is not None:

@@ -85,8 +85,8 @@ def headline_section(doc: Doc, metrics: Mapping, scenes_dir: Path, scene_ids: Se
           "missions all three ran: 0 = as good as doing nothing, 1 = as good as the optimal reference (the "
           "cheapest assignment over the mission on ground-truth costs, executed), below 0 = worse than doing "
           "nothing. m − m_nothing is the paired difference per mission; \"yes\" when its CI lies below 0 (significantly better than doing "
-          "nothing). Cost per delivered = Σ(γ_nav·cc + t_exe + d) / delivered [s per object]. 95% bootstrap CIs "
-          "(paired ones resample the missions jointly). The anchors (doing nothing, the optimal reference) are "
+          "nothing). Cost per delivered = Σ(γ_nav·cc + t_exe + d) / delivered [s per object]. 95% CIs, clustered by house "
+          "(paired ones over the same missions). The anchors (doing nothing, the optimal reference) are "
           "shown, never judged.")
     header = ["planner", "missions", "delivered", "delivered / mission [CI]", "m_overall / mission [CI]"]
     header += ["position [CI]"] if with_pos else []
@@ -230,7 +230,7 @@ def ordering_sentence(metrics: Mapping, judge: str) -> str:
     best = "the lowest" if ranked[0] == judge else "not the lowest"
     return (f"The paper's ordering ({plots.label(judge)} best on m_overall per mission, judged by the paired "
             f"CIs and the delivery check) {verdict}; its mean is {best}: {figs} (mean per mission, "
-            f"{len(pl)} planners, anchors aside; bootstrap CI)." + (f" Paired improvement: {imps}." if imps else ""))
+            f"{len(pl)} planners, anchors aside; 95% CI)." + (f" Paired improvement: {imps}." if imps else ""))
 
 
 def summary_section(doc: Doc, metrics: Mapping, judge: str) -> None:

@@ -22,7 +22,7 @@ def mechanism_section(doc: Doc, metrics: Mapping, per_mission: Sequence[Mapping]
     doc.p("Each variant runs the same candidates and missions with one part of the mechanism removed "
           "(no learning: no known cost kept between commands; no cost choice: the first feasible candidate is "
           "executed unestimated; no carry-over: a known cost is used only for the identical action and state). "
-          "Differences are full − variant per mission, with 95% house-clustered paired bootstrap CIs: a positive "
+          "Differences are full − variant per mission, with 95% house-clustered paired CIs: a positive "
           "Δ delivered and a negative Δ m_overall mean the removed part helps.")
     rows = []
     for variant, d in sorted(mech.items()):

@@ -151,7 +151,7 @@ def table_ii_section(doc: Doc, metrics_dir: Path, temperature_results: Sequence[
               "judged, whether or not its action ran. Accuracy counts 'unknown' as wrong; coverage = share "
               "answered; accuracy when answered is compared with chance (1/3 over easy / medium / hard) and "
               "the majority class (always the commonest true class); the claim holds when its 95% "
-              "house-clustered bootstrap CI lies above both, does not hold when it lies below either, and "
+              "house-clustered CI lies above both, does not hold when it lies below either, and "
               "cannot be told only when it straddles the higher. The last column checks the measurement: of the judged "
               "inferences whose action also ran later, the share whose executed class equals the measured one.")
         doc.table(["temperature σ", "results", "planner", "inferences judged", "accuracy [CI]", "coverage",

@@ -61,7 +61,7 @@ def color(planner: str) -> str | None:
 
 def cumulative_figure(rows: Iterable[Mapping], path: str | os.PathLike) -> Path:
     """The overall-metric figure: cumulative m_overall mean vs object index, one line per planner
-    with its bootstrap CI band. rows: cumulative.csv (planner, object_index, m_overall_cum, ci_lo,
+    with its CI band. rows: cumulative.csv (planner, object_index, m_overall_cum, ci_lo,
     ci_hi)."""
     plt = _plt()
     by: dict[str, list[Mapping]] = {}
@@ -79,7 +79,7 @@ def cumulative_figure(rows: Iterable[Mapping], path: str | os.PathLike) -> Path:
         ax.fill_between(x, lo, hi, color=c, alpha=0.2, linewidth=0)
     ax.set_xlabel("object index along the mission")
     ax.set_ylabel("cumulative $m_{overall}$")
-    ax.set_title("Overall metric along the mission (mean, bootstrap CI)")
+    ax.set_title("Overall metric along the mission (mean, CI)")
     ax.grid(alpha=0.3)
     if by:
         ax.legend()
@@ -110,7 +110,7 @@ def per_object_bars(rows: Iterable[Mapping], metric: str, path: str | os.PathLik
     ax.set_xticks(idx)
     ax.set_xticklabels([f"obj_{i}" for i in idx], rotation=0)
     ax.set_ylabel(ylabel or metric)
-    ax.set_title(f"{ylabel or metric} per object (mean, bootstrap CI)")
+    ax.set_title(f"{ylabel or metric} per object (mean, CI)")
     ax.grid(axis="y", alpha=0.3)
     if planners:
         ax.legend(fontsize=8)

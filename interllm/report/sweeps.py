@@ -1,6 +1,6 @@
 """The report's sections on multirun results beside this run: the M ablation, the cost-estimate
 variants, the oracle sweep with this run's model on its error axis, and the cost encodings. Each
-pairs the runs over the missions both ran (per_mission.csv) with bootstrap CIs.
+pairs the runs over the missions both ran (per_mission.csv) with house-clustered CIs.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def m_ablation_section(doc: Doc, m_results: Sequence[tuple[str, str | os.PathLik
         return
     doc.h(2, "Ablation over M (plan candidates)")
     base_lab, base_dir = next(((lab, d) for lab, d, _ in got if lab == "M=3"), (got[0][0], got[0][1]))
-    doc.p(f"Paired against {base_lab} on the same missions: reduction of m_overall, 95% house-clustered bootstrap CI.")
+    doc.p(f"Paired against {base_lab} on the same missions: reduction of m_overall, 95% house-clustered CI.")
     rows = []
     for lab, d_dir, mj in got:
         d = mj.get("planners", {}).get(judge, {})
@@ -88,7 +88,7 @@ def estimates_section(doc: Doc, metrics_dir: Path, variants: Sequence[tuple[str,
     doc.h(2, "Cost-estimate variants (planner.inter_llm.nav_estimate)")
     doc.p(f"{plots.label(judge)} with each variant on the same missions as this run ({current}; paper_sum is "
           f"the paper's equation); change = paired reduction of m_overall against {current} (positive: the "
-          f"variant is cheaper), 95% house-clustered bootstrap CI.")
+          f"variant is cheaper), 95% house-clustered CI.")
     this = read_json(metrics_dir / "metrics.json")["planners"].get(judge, {})
 
     def row(lab: str, m: Mapping, change: str, n_pairs: str) -> list[str]:
@@ -172,7 +172,7 @@ def capability_section(doc: Doc, metrics: Mapping, oracles: Sequence[tuple[float
           "against ground truth for every source: relevance = share of the objects the candidates take that the "
           "command asks for; target = share of candidates delivering to a furniture the command names; cost "
           f"class = {plots.label(judge)}'s inferred classes equal to the measured ones ('unknown' wrong). "
-          "m_overall per mission and paired improvements with 95% bootstrap CIs.")
+          "m_overall per mission and paired improvements with 95% house-clustered CIs.")
 
     def mean_ci(v: tuple, unit: str = "") -> str:
         return f"{fnum(v[0])}{unit} [{fnum(v[1])}, {fnum(v[2])}]"
@@ -221,7 +221,7 @@ def encoding_section(doc: Doc, results: Sequence[tuple[str, str, Path]], metrics
     doc.p(f"{ref} in runs that differ only in llm.oracle_costs (classes: the paper's three cost classes; numeric: "
           "the measured cost) and/or planner.inter_llm.cost_encoding (paper; expected: plus γ_obj × the chance the action "
           f"fails outright). Each variant is paired against {BASE_ENCODING} of its group on the missions both ran "
-          "(variant − base; 95% paired house-clustered bootstrap CIs; the position difference resamples the missions jointly for "
+          "(variant − base; 95% paired house-clustered CIs; the position difference takes the missions jointly for "
           f"{ref} and both anchors of both runs).")
     rows = []
     for g in sorted(groups):
