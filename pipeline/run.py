@@ -24,7 +24,7 @@ from interllm.config import check_api_key_env
 from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, output_error
 from interllm.io import confine_writes, exclusive_folder, read_json
 from interllm.stages.pipeline import run_all
-from interllm.stages.resume import FINISHED, METRICS, finished_run, job_key, mark_finished
+from interllm.stages.resume import FINISHED, METRICS, finished_run, forget_finished, job_key, mark_finished
 from interllm.stages.workers import usable_cores
 from pipeline._common import ROOT, setup_logging, write_folders
 from pipeline._hydra import CONF_DIR, to_config
@@ -59,6 +59,7 @@ def run(cfg: DictConfig) -> dict:
             print(f"{run_dir}: already made with this config, code and benchmark; skipped "
                   f"(resume=false, or delete its {FINISHED}, to make it again)", file=sys.stderr)
             return read_json(run_dir / METRICS)
+        forget_finished(run_dir)  # a run that fails from here on leaves no record of an earlier one
         metrics = run_all(typed, out, resolved_config=resolved)
         mark_finished(run_dir, key)
         return metrics

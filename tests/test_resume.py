@@ -49,6 +49,16 @@ def test_a_finished_job_is_skipped_and_a_changed_or_unfinished_one_is_made(tmp_p
     assert changed.returncode == 0 and SKIPPED not in changed.stderr
 
 
+def test_a_run_that_fails_part_way_leaves_no_record_of_the_earlier_one(tmp_path):
+    run_dir, cache = tmp_path / "job", tmp_path / "cache"
+    assert _run(run_dir, cache).returncode == 0
+    # the same folder, another config that stops in the scenes stage: the old record must go
+    failed = _run(run_dir, cache, "resume=false", "scene.n_furniture=1000")
+    assert failed.returncode != 0
+    assert not (run_dir / resume.FINISHED).exists()
+    assert SKIPPED not in _run(run_dir, cache).stderr  # the first config is made again, not skipped
+
+
 def test_the_key_follows_config_and_code_but_not_execution_settings(tmp_path):
     root = tmp_path / "repo"
     (root / "interllm").mkdir(parents=True)

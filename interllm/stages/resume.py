@@ -93,3 +93,9 @@ def mark_finished(run_dir: Path, key: str) -> Path:
     atomic_write_text(record, json.dumps({"key": key, "metrics_sha256": _sha256(run_dir / METRICS)},
                                          indent=1, sort_keys=True) + "\n")
     return record
+
+
+def forget_finished(run_dir: Path) -> None:
+    """Remove ``run_dir``'s record before a run starts writing into it: a run that then fails part
+    way leaves outputs of two runs, which must not pass for the earlier finished one."""
+    (run_dir / FINISHED).unlink(missing_ok=True)
