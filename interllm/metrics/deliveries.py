@@ -131,7 +131,7 @@ def _position(m: Any, null: Any, opt: Any) -> Any:
 
 def position(m: Sequence[float], null: Sequence[float], opt: Sequence[float], n_boot: int = 2000,
              ci: float = 0.95, seed: int = 0, houses: Optional[Sequence[str]] = None,
-             method: str = "cluster_bootstrap") -> tuple[float, float, float]:
+             *, method: str = "cluster_bootstrap") -> tuple[float, float, float]:
     """(position, lo, hi) of a planner's per-mission m_overall ``m`` between the nothing anchor's
     ``null`` (0) and the optimal anchor's ``opt`` (1), the same missions in the same order; NaN
     when Σ null = Σ opt. The CI resamples the missions jointly for the three (by house, then
@@ -155,7 +155,7 @@ def positions(per_mission: Iterable[Mapping], n_boot: int = 2000, ci: float = 0.
             keys = sorted(set(m[p]) & set(m[NOTHING]) & set(m[OPTIMAL]))
             v, lo, hi = position([m[p][k] for k in keys], [m[NOTHING][k] for k in keys],
                                  [m[OPTIMAL][k] for k in keys], n_boot, ci, bootstrap_seed(seed, f"position:{p}"),
-                                 houses_of(keys), method)
+                                 houses_of(keys), method=method)
             out[p].update({"position": v, "position_ci_lo": lo, "position_ci_hi": hi,
                            "position_n_missions": len(keys)})
         if p == NOTHING:

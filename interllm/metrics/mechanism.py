@@ -58,7 +58,7 @@ def _cost_per_delivered(full: dict[tuple, Mapping], variant: dict[tuple, Mapping
 
 
 def learning_curve(per_command: Iterable[Mapping], full: str, variant: str, gamma_nav: float, n_boot: int = 2000,
-                   ci: float = 0.95, seed: int = 0, method: str = "cluster_bootstrap") -> list[dict]:
+                   ci: float = 0.95, seed: int = 0, *, method: str = "cluster_bootstrap") -> list[dict]:
     """Per command index: {"command_index", "n_pairs", delivered (n_fulfilled) and m_overall
     differences full − variant with CIs, cost per delivered object of each and their difference}."""
     rows = list(per_command)
@@ -78,7 +78,7 @@ def learning_curve(per_command: Iterable[Mapping], full: str, variant: str, gamm
 
 def mechanism_table(per_mission: Iterable[Mapping], per_command: Iterable[Mapping], planners: Mapping[str, Mapping],
                     gamma_nav: float, n_boot: int = 2000, ci: float = 0.95, seed: int = 0,
-                    method: str = "cluster_bootstrap") -> dict[str, dict]:
+                    *, method: str = "cluster_bootstrap") -> dict[str, dict]:
     """{variant: {"ablates", "n_pairs", "n_fulfilled_diff", "m_overall_diff" (with CIs),
     "cost_per_delivered_*", "by_command": ``learning_curve``}} for every ablation variant of
     ``planners`` (metrics.json's), full − variant per mission."""
@@ -91,5 +91,5 @@ def mechanism_table(per_mission: Iterable[Mapping], per_command: Iterable[Mappin
                         **_diff(f, v, "n_fulfilled", n_boot, ci, s, method),
                         **_diff(f, v, "m_overall", n_boot, ci, s, method),
                         **_cost_per_delivered(f, v, gamma_nav, n_boot, ci, s, method),
-                        "by_command": learning_curve(pc, full, variant, gamma_nav, n_boot, ci, seed, method)}
+                        "by_command": learning_curve(pc, full, variant, gamma_nav, n_boot, ci, seed, method=method)}
     return out

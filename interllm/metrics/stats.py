@@ -230,7 +230,7 @@ def compare_planners(per_mission: Iterable[Mapping], judge: str, metric: str = "
 
 def group_mean_ci(rows: Iterable[Mapping], keys: Sequence[str], value: str, n_boot: int = 2000,
                   ci: float = 0.95, seed: int = 0, cluster: str = "scene",
-                  method: str = "cluster_bootstrap") -> list[dict]:
+                  *, method: str = "cluster_bootstrap") -> list[dict]:
     """Mean and bootstrap CI of ``value`` per group of ``keys``: rows {keys..., mean, ci_lo, ci_hi, n},
     sorted by the group key. The CI is clustered by each row's ``cluster`` field (the house)."""
     groups: dict[tuple, list[float]] = {}

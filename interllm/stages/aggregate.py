@@ -195,7 +195,7 @@ def _metrics_json(records: Sequence[MissionRecord], scenes: Mapping[str, Mapping
         "gamma_obj_sensitivity": dl["gamma_obj_sensitivity"],
         "candidate_diversity": dl["candidate_diversity"],
         "mechanism": mechanism.mechanism_table(pm, tables["per_command"], dl["planners"], g.nav, s.n_boot, s.ci,
-                                               s.seed, s.interval),
+                                               s.seed, method=s.interval),
         "semantic_accuracy": summary.semantic_summary(tables["semantic_accuracy"]),
         "manipulation": manipulation.manipulation_summary(tables["per_manipulation"]),
         "answers": capability.answer_accuracy(records, scenes),
