@@ -40,6 +40,7 @@ CACHE_MODES = ("readwrite", "replay", "off", "retry_failures")
 SCENE_SIZES = ("paper", "medium", "large", "huge", "tiny", "custom")
 SCENE_LAYOUTS = ("grid", "hallway")  # scene.layout (interllm/scene/floor_plans.py)
 OBJECT_DESIGNS = ("graded", "legacy")  # scene.object_design (interllm/scene/graded_objects.py, surface_objects.py)
+ASSET_SOURCES = ("catalog", "procthor")  # scene.assets (interllm/scene/asset_source.py)
 MISSION_FEASIBILITY = ("measured", "off")  # mission.feasibility (interllm/stages/feasibility.py)
 MISSION_COMMANDS = ("auto", "catalog", "open")  # mission.commands (interllm/scene/open_commands.py)
 ORACLE_COSTS = ("classes", "numeric")  # llm.oracle_costs (interllm/planning/oracle.py)
@@ -83,6 +84,9 @@ class SceneConfig:
     # each command at least objects_per_command easy ones on reachable furniture; legacy: hard
     # placements drawn with hard_placement_prob only
     object_design: str = "graded"
+    # sizes of generated pieces: catalog (one per category) or procthor (a ProcTHOR asset per piece, chairs
+    # from its asset groups, objects weighted by its receptacle statistics; interllm/scene/asset_source.py)
+    assets: str = "catalog"
     wall_thickness: float = 0.1  # [m]
     wall_height: float = 2.5  # [m]
     grid_resolution: float = 0.05  # [m] per occupancy cell
@@ -105,6 +109,7 @@ class SceneConfig:
             _at_most(getattr(self, f"n_{key}"), SCENE_LIMITS[key], f"scene.n_{key}", key)
         _choice(self.layout, "scene.layout", SCENE_LAYOUTS)
         _choice(self.object_design, "scene.object_design", OBJECT_DESIGNS)
+        _choice(self.assets, "scene.assets", ASSET_SOURCES)
         _check(0.3 <= self.door_width_min <= self.door_width, "scene.door_width_min",
                f"must be in [0.3 m, scene.door_width], got {self.door_width_min}")
         _check(0 < self.room_size_min <= self.room_size_max, "scene.room_size_min",

@@ -39,7 +39,7 @@ FROZEN_FILES = ("scene.json", "missions.json", "feasibility.json")  # per scene,
 FREE_KEYS = frozenset({"scene.reach_report", "mission.limit_missions"})
 # keys added after benchmarks were frozen, with the value that draws their houses and missions as they
 # were drawn: a manifest without the key was frozen with that value
-ADDED_KEYS = {"mission": {"commands": "auto"}}
+ADDED_KEYS = {"mission": {"commands": "auto"}, "scene": {"assets": "catalog"}}
 # counts a run may lower: house i and mission j do not depend on how many are drawn (house i is
 # generated with scene.seed + i, mission j with its own seed), so the first ones are a subset
 SUBSET_KEYS = ("scene.n_scenes", "mission.n_missions")

@@ -14,6 +14,7 @@ import numpy as np
 
 from interllm.config import SceneConfig
 from interllm.errors import UserError
+from interllm.scene.asset_source import CatalogSizes
 from interllm.scene.catalog import Catalog, CommandSpec
 from interllm.scene.graph import Door, Furniture, Room, SceneObject, Wall
 
@@ -48,6 +49,14 @@ class BuildState:
     easy: set[str] = field(default_factory=set)  # graded design: the easy instances placed
     # graded design: furniture id -> the part of its surface kept free of objects (x0, y0, x1, y1) [m]
     keep_clear: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+    # scene.assets: the size (and asset) of every piece drawn (None: the catalog's sizes)
+    assets: CatalogSizes | None = None
+    # furniture id -> the chairs reserved around it (scene.assets=procthor), seated once the budget allows
+    pending_chairs: dict[str, list[Furniture]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.assets is None:
+            self.assets = CatalogSizes(self.cat)
 
     def new_id(self, kind: str) -> str:
         """The next id of ``kind``: ``<kind>_1``, ``<kind>_2``, ..."""

@@ -6,6 +6,11 @@ optional furniture in rooms drawn by floor area, up to ``scene.n_furniture``. A 
 ring of ``placement.free_ring`` m to every other furniture of its room and, on its free sides, to
 the walls; wall-mounted pieces stand ``WALL_GAP`` off a wall. No furniture enters the
 ``door_clear_depth`` m zone in front of a door (``DOOR_ZONE_SIDE`` m beside the opening).
+
+Each piece's size comes from ``b.assets`` (``scene.assets``; ``asset_source``). With ProcTHOR's
+assets a dining table or desk is placed with the chairs its asset group puts around it (the chairs
+inside the room, out of the door zones, the free ring kept around them too); the chairs are seated
+after the commands' targets, while the budget allows, and count as furniture.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ def place_all_furniture(b: BuildState) -> None:
             if cmd.target_room_type in (None, r.type) and len(b.furniture) < n_target:
                 if any(_try_place_furniture(b, r.id, c) for c in cmd.target_furniture):
                     break
+    _seat_chairs(b, n_target)
     failures = 0
     areas = np.array([(r.bounds[2] - r.bounds[0]) * (r.bounds[3] - r.bounds[1]) for r in rooms])
     p_room = areas / areas.sum()
@@ -52,58 +58,131 @@ def place_all_furniture(b: BuildState) -> None:
             if failures > 60 + 10 * n_target:
                 raise Retry(f"could place only {len(b.furniture)} of {n_target} furniture; "
                             "rooms are too small (raise scene.room_size_max or lower scene.n_furniture)")
+        else:
+            _seat_chairs(b, n_target)
 
 
 def _try_place_furniture(b: BuildState, rid: str, category: str, tries: int = 30) -> str | None:
-    """Place one ``category`` piece in room ``rid`` within ``tries`` draws; its id, or None."""
+    """Place one ``category`` piece in room ``rid`` within ``tries`` draws; its id, or None. The last
+    third of the draws give up the piece's chairs."""
     fc = b.cat.furniture[category]
     ring = b.cat.placement.free_ring
-    ix0, iy0, ix1, iy1 = b.interiors[rid]
+    interior = b.interiors[rid]
     zones = _door_zones(b, rid)
     others = [f.footprint for f in b.furniture.values() if f.room == rid]
-    a, d, h = fc.size
-    for _ in range(tries):
-        if fc.mount == "wall":
-            side = ("S", "N", "W", "E")[int(b.rng.integers(4))]
-            if side in ("S", "N"):
-                sx, sy = a, d
-                lo, hi = ix0 + sx / 2 + WALL_GAP, ix1 - sx / 2 - WALL_GAP
-                if lo > hi:
-                    continue
-                cx = b.rng.uniform(lo, hi)
-                cy = iy0 + WALL_GAP + sy / 2 if side == "S" else iy1 - WALL_GAP - sy / 2
-                if iy1 - iy0 - sy - WALL_GAP < ring:
-                    continue
-            else:
-                sx, sy = d, a
-                lo, hi = iy0 + sy / 2 + WALL_GAP, iy1 - sy / 2 - WALL_GAP
-                if lo > hi:
-                    continue
-                cy = b.rng.uniform(lo, hi)
-                cx = ix0 + WALL_GAP + sx / 2 if side == "W" else ix1 - WALL_GAP - sx / 2
-                if ix1 - ix0 - sx - WALL_GAP < ring:
-                    continue
-        else:
-            sx, sy = (a, d) if b.rng.random() < 0.5 else (d, a)
-            lox, hix = ix0 + ring + sx / 2, ix1 - ring - sx / 2
-            loy, hiy = iy0 + ring + sy / 2, iy1 - ring - sy / 2
-            if lox > hix or loy > hiy:
-                sx, sy = sy, sx
-                lox, hix = ix0 + ring + sx / 2, ix1 - ring - sx / 2
-                loy, hiy = iy0 + ring + sy / 2, iy1 - ring - sy / 2
-                if lox > hix or loy > hiy:
-                    return None
-            cx, cy = b.rng.uniform(lox, hix), b.rng.uniform(loy, hiy)
-        cx, cy = r4(cx), r4(cy)
-        fp = (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)
-        if any(rects_overlap(fp, z) for z in zones):
+    others += [c.footprint for fid, cs in b.pending_chairs.items() if b.furniture[fid].room == rid for c in cs]
+    for attempt in range(tries):
+        drawn = b.assets.furniture(category, b.rng)
+        spots = b.assets.chairs(category, drawn.size[:2], b.rng) if attempt < 2 * tries // 3 else []
+        pose = _draw_pose(b, interior, fc.mount, drawn.size, ring)
+        if pose is None:
+            if fc.mount != "wall":
+                return None
             continue
-        if any(rect_gap(fp, o) < ring for o in others):
+        (cx, cy), (sx, sy), side = pose
+        fp = (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)
+        chairs = [_turn(s, side, (cx, cy)) for s in spots]
+        boxes = [fp] + [c[0] for c in chairs]
+        if any(rects_overlap(box, z) for box in boxes for z in zones):
+            continue
+        if any(rect_gap(box, o) < ring for box in boxes for o in others):
+            continue
+        if chairs and not all(_inside(box, interior) for box, _ in chairs):
             continue
         fid = b.new_id(category)
-        b.furniture[fid] = Furniture(fid, category, rid, (cx, cy), (r4(sx), r4(sy), r4(h)), fc.description)
+        b.furniture[fid] = Furniture(fid, category, rid, (cx, cy), (r4(sx), r4(sy), r4(drawn.size[2])),
+                                     fc.description, asset=drawn.asset)
+        if chairs:
+            b.pending_chairs[fid] = [_chair(b, rid, box, asset) for box, asset in chairs]
         return fid
     return None
+
+
+def _draw_pose(b: BuildState, interior: tuple[float, float, float, float], mount: str,
+               size: tuple[float, float, float], ring: float
+               ) -> tuple[tuple[float, float], tuple[float, float], str] | None:
+    """((cx, cy), (sx, sy), side) [m] of one drawn pose of a piece of ``size`` (x along its back,
+    depth) in the room ``interior``: against a wall (side "S", "N", "W", "E": the wall its back is
+    to) or free-standing (side "" unturned, "T" turned by 90°); None when it cannot fit this way."""
+    ix0, iy0, ix1, iy1 = interior
+    a, d = size[0], size[1]
+    if mount == "wall":
+        side = ("S", "N", "W", "E")[int(b.rng.integers(4))]
+        if side in ("S", "N"):
+            sx, sy = a, d
+            lo, hi = ix0 + sx / 2 + WALL_GAP, ix1 - sx / 2 - WALL_GAP
+            if lo > hi:
+                return None
+            cx = b.rng.uniform(lo, hi)
+            cy = iy0 + WALL_GAP + sy / 2 if side == "S" else iy1 - WALL_GAP - sy / 2
+            if iy1 - iy0 - sy - WALL_GAP < ring:
+                return None
+        else:
+            sx, sy = d, a
+            lo, hi = iy0 + sy / 2 + WALL_GAP, iy1 - sy / 2 - WALL_GAP
+            if lo > hi:
+                return None
+            cy = b.rng.uniform(lo, hi)
+            cx = ix0 + WALL_GAP + sx / 2 if side == "W" else ix1 - WALL_GAP - sx / 2
+            if ix1 - ix0 - sx - WALL_GAP < ring:
+                return None
+        return (r4(cx), r4(cy)), (sx, sy), side
+    side = "" if b.rng.random() < 0.5 else "T"
+    sx, sy = (a, d) if side == "" else (d, a)
+    lox, hix = ix0 + ring + sx / 2, ix1 - ring - sx / 2
+    loy, hiy = iy0 + ring + sy / 2, iy1 - ring - sy / 2
+    if lox > hix or loy > hiy:
+        side = "T" if side == "" else ""
+        sx, sy = sy, sx
+        lox, hix = ix0 + ring + sx / 2, ix1 - ring - sx / 2
+        loy, hiy = iy0 + ring + sy / 2, iy1 - ring - sy / 2
+        if lox > hix or loy > hiy:
+            return None
+    return (r4(b.rng.uniform(lox, hix)), r4(b.rng.uniform(loy, hiy))), (sx, sy), side
+
+
+# how a piece's own frame (x along its back, y towards its front) lies in the room for each side
+# (module doc of asset_source): (x, y) -> the room's (x, y), and whether x and y swap
+_TURNS = {"": (lambda x, y: (x, y), False), "S": (lambda x, y: (x, y), False),
+          "T": (lambda x, y: (-y, x), True), "N": (lambda x, y: (-x, -y), False),
+          "W": (lambda x, y: (y, -x), True), "E": (lambda x, y: (-y, x), True)}
+
+
+def _turn(spot, side: str, centre: tuple[float, float]) -> tuple[tuple[float, float, float, float], str]:
+    """(footprint (x0, y0, x1, y1) [m], asset id) of a chair ``spot`` of a piece posed at ``centre``
+    [m] with ``side`` (``_draw_pose``)."""
+    turn, swap = _TURNS[side]
+    ox, oy = turn(*spot.offset)
+    w, h = (spot.size[1], spot.size[0]) if swap else spot.size
+    x, y = r4(centre[0] + ox), r4(centre[1] + oy)
+    return (x - w / 2, y - h / 2, x + w / 2, y + h / 2), spot.asset
+
+
+def _inside(box: tuple[float, float, float, float], interior: tuple[float, float, float, float]) -> bool:
+    """True when ``box`` lies in ``interior`` at least WALL_GAP [m] off its walls."""
+    return (box[0] >= interior[0] + WALL_GAP and box[1] >= interior[1] + WALL_GAP
+            and box[2] <= interior[2] - WALL_GAP and box[3] <= interior[3] - WALL_GAP)
+
+
+def _chair(b: BuildState, rid: str, box: tuple[float, float, float, float], asset: str) -> Furniture:
+    """A reserved chair on footprint ``box`` [m] (its id is given when it is seated)."""
+    fc = b.cat.furniture["chair"]
+    cx, cy = r4((box[0] + box[2]) / 2), r4((box[1] + box[3]) / 2)
+    size = (r4(box[2] - box[0]), r4(box[3] - box[1]), r4(fc.size[2]))
+    return Furniture("", "chair", rid, (cx, cy), size, fc.description, asset=asset)
+
+
+def _seat_chairs(b: BuildState, n_target: int) -> None:
+    """Seat the reserved chairs, table by table in placing order, while the furniture budget allows;
+    the floor of chairs not seated stays reserved (free)."""
+    for fid in list(b.pending_chairs):
+        chairs = b.pending_chairs[fid]
+        if len(b.furniture) + len(chairs) > n_target:
+            continue
+        del b.pending_chairs[fid]
+        for c in chairs:
+            cid = b.new_id("chair")
+            b.furniture[cid] = Furniture(cid, c.category, c.room, c.center, c.size, c.description, asset=c.asset)
 
 
 def _door_zones(b: BuildState, rid: str) -> list[tuple[float, float, float, float]]:

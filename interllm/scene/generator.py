@@ -6,7 +6,8 @@ seeded by ``core.seeding.scene_seed(seed, attempt)``, and every float is rounded
 stages on one ``build_state.BuildState``:
 
 1. the floor plan: rooms, doors and walls (``floor_plans``; ``scene.layout`` grid or hallway);
-2. the furniture (``furnishing``);
+2. the furniture (``furnishing``), each piece's size from ``scene.assets`` (``asset_source``: the
+   catalog's, or a ProcTHOR asset with chairs around tables and desks);
 3. the objects (``scene.object_design``): ``graded_objects`` (difficulty by design) or
    ``surface_objects`` (legacy).
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from interllm.config import SceneConfig
 from interllm.core.seeding import scene_seed
+from interllm.scene.asset_source import PROCTHOR_META, asset_source
 from interllm.scene.build_state import BuildState, Retry, SceneGenerationError
 from interllm.scene.catalog import Catalog, load_catalog
 from interllm.scene.floor_plans import grid_plan, hallway_plan
@@ -99,9 +101,10 @@ def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
     house_types = set(cat.room_types_for_house(cfg.n_rooms))
     want_all = all(c.target_room_type in house_types or c.target_room_type is None for c in cat.commands)
     fallback = None
+    assets = asset_source(cfg.assets, cat)
     for attempt in range(MAX_ATTEMPTS):
         rng = np.random.default_rng(scene_seed(seed, attempt))
-        b = BuildState(cat, cfg, rng, robot_radius, k=k, footprint_extra=extra)
+        b = BuildState(cat, cfg, rng, robot_radius, k=k, footprint_extra=extra, assets=assets)
         try:
             (hallway_plan if cfg.layout == "hallway" else grid_plan)(b)
             place_all_furniture(b)
@@ -115,7 +118,8 @@ def generate_scene(cfg: SceneConfig, index: int = 0, robot_radius: float = 0.25,
             meta={"generator": "interllm.scene.generator", "preset": cfg.name, "attempt": attempt,
                   "commands": supported, "robot_radius": robot_radius,
                   "grid_resolution": cfg.grid_resolution,
-                  **({"object_design": "graded", "objects_per_command": k} if graded else {})})
+                  **({"object_design": "graded", "objects_per_command": k} if graded else {}),
+                  **({"assets": PROCTHOR_META} if cfg.assets == "procthor" else {})})
         bad = []
         for doors in ("presumed", "true"):
             grid = rasterize(scene, cfg.grid_resolution, robot_radius, doors=doors)

@@ -23,7 +23,7 @@ import networkx as nx
 
 SCHEMA_VERSION = 1
 # Record fields written to the scene file only when set, so that scenes without them keep their bytes.
-OMITTED_WHEN_EMPTY = frozenset({"unreachable", "parts"})
+OMITTED_WHEN_EMPTY = frozenset({"unreachable", "parts", "asset"})
 
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
@@ -103,6 +103,7 @@ class Furniture:
     # stands on, all inside ``footprint``; empty: the footprint box itself. Omitted from the file when
     # empty, so box-shaped scenes keep their bytes.
     parts: tuple[Box2, ...] = ()
+    asset: str = ""  # the ProcTHOR asset id its size comes from ("": the catalog's size; omitted then)
 
     @property
     def surface_height(self) -> float:
@@ -131,6 +132,7 @@ class SceneObject:
     usage: str = ""  # semantic usage text ("for eating breakfast")
     placement: str = "front"  # "front" | "deep" | "high" | "clutter": how hard it is to reach; "inside": in a closed receptacle
     unreachable: str = ""  # why the robot cannot reach it ("": reachable); kept, left out of missions
+    asset: str = ""  # the ProcTHOR asset id its size comes from ("": the catalog's size; omitted then)
 
 
 class _FurnitureRooms(Mapping):

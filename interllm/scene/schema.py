@@ -16,6 +16,8 @@ _VEC3 = {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}
 _SIZE3 = {"type": "array", "items": _POS, "minItems": 3, "maxItems": 3}
 PLACEMENTS = ("front", "deep", "high", "clutter", "inside")
 _WHY = {"type": "string", "description": "why the robot cannot reach it (absent: reachable)"}
+_ASSET = {"type": "string", "minLength": 1,
+          "description": "the ProcTHOR asset id (asset-database.json) its size comes from (absent: the catalog's)"}
 
 
 def _record(props: dict, required: list[str]) -> dict:
@@ -41,11 +43,12 @@ def scene_json_schema() -> dict:
                                                               "maxItems": 4},
                                    "description": "the rectangles [x0, y0, x1, y1] of a footprint that is "
                                                   "no box (an L- or C-shaped counter), inside the box "
-                                                  "center +- size / 2"}},
+                                                  "center +- size / 2"},
+                         "asset": _ASSET},
                         ["id", "category", "room", "center", "size"])
     obj = _record({"id": _ID, "category": {"type": "string", "minLength": 1}, "furniture": _ID,
                    "position": _VEC3, "size": _SIZE3, "usage": {"type": "string"},
-                   "placement": {"enum": list(PLACEMENTS)}, "unreachable": _WHY},
+                   "placement": {"enum": list(PLACEMENTS)}, "unreachable": _WHY, "asset": _ASSET},
                   ["id", "category", "furniture", "position", "size"])
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",

@@ -39,6 +39,7 @@ def place_object(b: BuildState, category: str, fid: str, mode: str, *, tries: in
     """
     pl = b.cat.placement
     oc = b.cat.objects[category]
+    drawn = b.assets.object(category, b.rng)  # its size (and asset): scene.assets
     f = b.furniture[fid]
     fx0, fy0, fx1, fy1 = f.footprint
     m = pl.surface_margin
@@ -47,7 +48,7 @@ def place_object(b: BuildState, category: str, fid: str, mode: str, *, tries: in
     if f.surface_height >= pl.high_min:
         mode = "high"
     for _ in range(tries):
-        sx, sy = oc.size[0], oc.size[1]
+        sx, sy = drawn.size[0], drawn.size[1]
         if b.rng.random() < 0.5:
             sx, sy = sy, sx
         if mode in ("front", "high"):
@@ -105,8 +106,8 @@ def place_object(b: BuildState, category: str, fid: str, mode: str, *, tries: in
         if accept is not None and not accept(x, y):
             continue
         oid = b.new_id(category)
-        b.objects[oid] = SceneObject(oid, category, fid, (x, y, r4(f.surface_height + oc.size[2] / 2)),
-                                     (r4(sx), r4(sy), r4(oc.size[2])), oc.usage, mode)
+        b.objects[oid] = SceneObject(oid, category, fid, (x, y, r4(f.surface_height + drawn.size[2] / 2)),
+                                     (r4(sx), r4(sy), r4(drawn.size[2])), oc.usage, mode, asset=drawn.asset)
         return oid
     return None
 
@@ -202,16 +203,25 @@ def place_legacy_objects(b: BuildState) -> dict[str, bool]:
     return {c.id: supported[c.id] for c in cat.commands}
 
 
+def _random_category(b: BuildState, fid: str) -> str:
+    """A category furniture ``fid`` holds, drawn uniformly or with ``b.assets``'s weights."""
+    f = b.furniture[fid]
+    holds = b.cat.furniture[f.category].holds
+    w = b.assets.object_weights(f.category, b.rooms[f.room].type, holds)
+    if w is None:
+        return holds[int(b.rng.integers(len(holds)))]
+    return holds[int(b.rng.choice(len(holds), p=w))]
+
+
 def fill_budget(b: BuildState) -> None:
     """Random objects on random furniture (hard with hard_placement_prob) up to scene.n_objects.
     Full surfaces: ``TooFull`` when not even half the objects fit, else ``Retry``."""
     cat, budget = b.cat, b.cfg.n_objects
-    fids = list(b.furniture)
+    fids = [f for f, fu in b.furniture.items() if cat.furniture[fu.category].holds]  # chairs hold nothing
     fails = in_a_row = 0
     while len(b.objects) < budget:
         fid = fids[int(b.rng.integers(len(fids)))]
-        holds = cat.furniture[b.furniture[fid].category].holds
-        if add_object(b, holds[int(b.rng.integers(len(holds)))], [fid]) is None:
+        if add_object(b, _random_category(b, fid), [fid]) is None:
             fails += 1
             in_a_row += 1
             # surfaces are full: too many failures in all, or in a row (bounds the work for big budgets)
