@@ -7,7 +7,8 @@
 
 - **Sizes.** A piece whose category maps to a ProcTHOR object type (``FURNITURE_TYPES``,
   ``OBJECT_TYPES``) is one asset of ``asset-database.json``, drawn uniformly among the type's assets
-  with the attempt's generator and recorded in the piece's ``asset``. Its footprint (x along its back,
+  with the attempt's generator (an object among the type's ``CanPickup`` assets) and recorded in the
+  piece's ``asset``. Its footprint (x along its back,
   depth) and height are the asset's bounding box [m]. A seat's or bed's box top is no surface (a
   sofa's back, a headboard): their surface height stays the catalog's (``SEAT_TYPES``).
 - **What stands where.** The random objects (``surface_objects.fill_budget``) of a host are drawn
@@ -119,7 +120,8 @@ class ProcthorAssets(CatalogSizes):
         self.db = db
         self._furniture = {c: tuple(a for a in db.assets_of(t) if a.id.startswith(prefix))
                            for c, (t, prefix) in FURNITURE_TYPES.items()}
-        self._objects = {c: db.assets_of(t) for c, t in OBJECT_TYPES.items()}
+        self._objects = {c: tuple(a for a in db.assets_of(t) if a.pickupable) or db.assets_of(t)
+                         for c, t in OBJECT_TYPES.items()}  # the CanPickup assets where the type has any
 
     def furniture(self, category: str, rng: np.random.Generator) -> Drawn:
         pool = self._furniture.get(category)

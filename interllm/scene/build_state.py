@@ -53,6 +53,7 @@ class BuildState:
     assets: CatalogSizes | None = None
     # furniture id -> the chairs reserved around it (scene.assets=procthor), seated once the budget allows
     pending_chairs: dict[str, list[Furniture]] = field(default_factory=dict)
+    seated_chairs: int = 0  # chairs seated from pending_chairs (furniture beyond scene.n_furniture)
 
     def __post_init__(self) -> None:
         if self.assets is None:

@@ -9,8 +9,8 @@ the walls; wall-mounted pieces stand ``WALL_GAP`` off a wall. No furniture enter
 
 Each piece's size comes from ``b.assets`` (``scene.assets``; ``asset_source``). With ProcTHOR's
 assets a dining table or desk is placed with the chairs its asset group puts around it (the chairs
-inside the room, out of the door zones, the free ring kept around them too); the chairs are seated
-after the commands' targets, while the budget allows, and count as furniture.
+inside the room, out of the door zones, the free ring kept around them too), seated once the
+commands' targets stand; chairs are furniture beyond ``scene.n_furniture`` (``_seat_chairs``).
 """
 
 from __future__ import annotations
@@ -34,21 +34,21 @@ def place_all_furniture(b: BuildState) -> None:
     for k in range(max_core):
         for r in rooms:
             core = cat.rooms[r.type].core
-            if k < len(core) and len(b.furniture) < n_target:
+            if k < len(core) and _pieces(b) < n_target:
                 _try_place_furniture(b, r.id, core[k])
     # Every command's target furniture, where the budget allows (e.g. the dresser of the gym command).
     for cmd in cat.commands:
-        if len(b.furniture) >= n_target or b.targets(cmd):
+        if _pieces(b) >= n_target or b.targets(cmd):
             continue
         for r in rooms:
-            if cmd.target_room_type in (None, r.type) and len(b.furniture) < n_target:
+            if cmd.target_room_type in (None, r.type) and _pieces(b) < n_target:
                 if any(_try_place_furniture(b, r.id, c) for c in cmd.target_furniture):
                     break
-    _seat_chairs(b, n_target)
+    _seat_chairs(b)
     failures = 0
     areas = np.array([(r.bounds[2] - r.bounds[0]) * (r.bounds[3] - r.bounds[1]) for r in rooms])
     p_room = areas / areas.sum()
-    while len(b.furniture) < n_target:
+    while _pieces(b) < n_target:
         r = rooms[int(b.rng.choice(len(rooms), p=p_room))]
         opt = cat.rooms[r.type].optional or tuple((c, 1.0) for c in cat.rooms[r.type].core)
         w = np.array([x[1] for x in opt])
@@ -56,10 +56,10 @@ def place_all_furniture(b: BuildState) -> None:
         if _try_place_furniture(b, r.id, category, tries=10) is None:
             failures += 1
             if failures > 60 + 10 * n_target:
-                raise Retry(f"could place only {len(b.furniture)} of {n_target} furniture; "
+                raise Retry(f"could place only {_pieces(b)} of {n_target} furniture; "
                             "rooms are too small (raise scene.room_size_max or lower scene.n_furniture)")
         else:
-            _seat_chairs(b, n_target)
+            _seat_chairs(b)
 
 
 def _try_place_furniture(b: BuildState, rid: str, category: str, tries: int = 30) -> str | None:
@@ -172,15 +172,18 @@ def _chair(b: BuildState, rid: str, box: tuple[float, float, float, float], asse
     return Furniture("", "chair", rid, (cx, cy), size, fc.description, asset=asset)
 
 
-def _seat_chairs(b: BuildState, n_target: int) -> None:
-    """Seat the reserved chairs, table by table in placing order, while the furniture budget allows;
-    the floor of chairs not seated stays reserved (free)."""
+def _pieces(b: BuildState) -> int:
+    """The furniture placed so far that counts against scene.n_furniture: all but the seated chairs."""
+    return len(b.furniture) - b.seated_chairs
+
+
+def _seat_chairs(b: BuildState) -> None:
+    """Seat the reserved chairs, table by table in placing order. They are furniture (obstacles, in
+    the scene graph) but no part of scene.n_furniture: a table's chairs do not take the place of a
+    piece that hosts objects, so a house with chairs hosts the commands a house without them does."""
     for fid in list(b.pending_chairs):
-        chairs = b.pending_chairs[fid]
-        if len(b.furniture) + len(chairs) > n_target:
-            continue
-        del b.pending_chairs[fid]
-        for c in chairs:
+        b.seated_chairs += len(b.pending_chairs[fid])
+        for c in b.pending_chairs.pop(fid):
             cid = b.new_id("chair")
             b.furniture[cid] = Furniture(cid, c.category, c.room, c.center, c.size, c.description, asset=c.asset)
 
