@@ -24,12 +24,13 @@ from pathlib import Path
 
 def _scene_generate(args) -> int:
     from interllm.scene import generate_scene, render_topdown  # lazy: a command loads only its own code
+    from interllm.config import ConfigError  # lazy: a command loads only its own code
     from interllm.scene.catalog import CatalogError, scene_config  # lazy: a command loads only its own code
 
     try:
-        cfg = scene_config(args.size, seed=args.seed)
-    except CatalogError as e:
-        print(f"error: --size: {e}", file=sys.stderr)
+        cfg = scene_config(args.size, seed=args.seed, assets=args.assets)
+    except (CatalogError, ConfigError) as e:
+        print(f"error: {'--assets' if 'scene.assets' in str(e) else '--size'}: {e}", file=sys.stderr)
         return 2
     out = _out_folder(args.out)
     scene = generate_scene(cfg, 0)
@@ -310,6 +311,8 @@ def _main(argv: list[str] | None = None) -> int:
     g = sc.add_parser("generate", help="generate a house")
     g.add_argument("--size", default="paper")
     g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--assets", default="catalog", help="catalog (one size per category) or procthor (ProcTHOR's "
+                                                       "asset database: real sizes, chairs around tables)")
     g.add_argument("--out", required=True)
     v = sc.add_parser("validate", help="validate a scene JSON file")
     v.add_argument("file")

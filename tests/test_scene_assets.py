@@ -81,7 +81,7 @@ def test_asset_ids_are_varied_not_one_per_type(houses):
             if f.asset:
                 ids[f.category].add(f.asset)
     assert len(ids["desk"]) >= 2 and len(ids["side_table"]) >= 2
-    assert sum(len(v) for v in ids.values()) >= 30  # distinct assets across 3 houses (10 houses: 162)
+    assert sum(len(v) for v in ids.values()) >= 30  # distinct assets across 3 houses (seeds 0-2: 59 furniture assets)
 
 
 def test_dining_tables_and_desks_get_the_chairs_of_an_asset_group(houses, db):
@@ -162,7 +162,7 @@ def test_a_bad_assets_value_names_the_key_and_choices():
 
 def test_objects_of_asset_houses_are_pickable_by_measurement(houses):
     """>= 70% of the objects of each furniture category with 4 or more pickable, 90% in all, by the
-    simulator's measurement (measured over 10 houses: 291 of 300, 97%; catalog houses 297 of 300)."""
+    simulator's measurement (measured over 10 houses: 289 of 300, 96%; catalog houses 297 of 300)."""
     from interllm.config import SimConfig
     from interllm.sim.reach_report import reach_report  # the simulator, only here
 
