@@ -11,7 +11,8 @@ what makes real houses hard for a mobile manipulator:
 - a bed with its head against the bedroom wall and a dresser and a desk (with its chair) against walls;
 - a TV stand against a wall, a sofa and a coffee table; a sink, a toilet and a side table.
 
-Every furniture has its ``axisAlignedBoundingBox`` as ProcTHOR writes it. The seed jitters the room
+Every furniture has its ``axisAlignedBoundingBox`` as ProcTHOR writes it; every object a real ``assetId`` of
+ProcTHOR's asset database (``_asset``), which sizes it on import. The seed jitters the room
 sizes and the objects' spots. ``OPEN_SURFACE`` names the objects on open surfaces (all but the
 fridge's).
 """
@@ -20,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 from procthor_houses import door, rect, room_walls, wall_id
+
+from interllm.scene.procthor_db import load_database
 
 K, LV, BD, BA = 2, 3, 4, 5  # ProcTHOR room ids (room|2, ...)
 INSIDE = ("Egg", "Lettuce")  # types put inside the fridge
@@ -38,6 +41,14 @@ def _furniture(type_name: str, room: int, n: int, centre: tuple[float, float], s
     return o
 
 
+def _asset(type_name: str) -> str:
+    """A real asset id of ``type_name`` in ProcTHOR's asset database (its first CanPickup one, by id), so
+    the importer sizes the object by it; ``<type>_1`` for a type the database lacks (Magazine)."""
+    assets = [a for a in load_database().assets.values() if a.object_type == type_name]
+    pick = sorted(a.id for a in assets if a.pickupable) or sorted(a.id for a in assets)
+    return pick[0] if pick else f"{type_name}_1"
+
+
 def _spread(rng: np.random.Generator, types: tuple[str, ...], room: int, first: int, box, y: float) -> list[dict]:
     """Children of ``types`` at seeded spots over the whole top ``box`` (x0, z0, x1, z1) [m], 0.06 m
     inside its edges, resting at height ``y`` [m]."""
@@ -45,7 +56,7 @@ def _spread(rng: np.random.Generator, types: tuple[str, ...], room: int, first: 
     out = []
     for k, t in enumerate(types):
         x, z = rng.uniform(x0 + 0.06, x1 - 0.06), rng.uniform(z0 + 0.06, z1 - 0.06)
-        out.append({"id": f"{t}|surface|{room}|{first + k}", "assetId": f"{t}_1",
+        out.append({"id": f"{t}|surface|{room}|{first + k}", "assetId": _asset(t),
                     "position": {"x": round(float(x), 3), "y": y, "z": round(float(z), 3)},
                     "rotation": {"x": 0, "y": 0, "z": 0}, "kinematic": False, "layer": "Procedural0"})
     return out
@@ -55,7 +66,7 @@ def _kitchen(w1: float, d1: float, rng: np.random.Generator) -> list[dict]:
     south = (0.3, 0.0, 2.9, 0.65)  # counter along the south wall, from the corner's west counter
     west = (0.0, 0.65, 0.65, min(2.55, d1 - 0.9))  # counter along the west wall
     fridge = _furniture("Fridge", K, 2, (w1 - 0.5, 0.38), (0.8, 1.8, 0.75))
-    fridge["children"] = [{"id": f"{t}|surface|{K}|{20 + k}", "assetId": f"{t}_1",
+    fridge["children"] = [{"id": f"{t}|surface|{K}|{20 + k}", "assetId": _asset(t),
                            "position": {"x": round(w1 - 0.5, 3), "y": 0.5 + 0.5 * k, "z": 0.35},
                            "rotation": {"x": 0, "y": 0, "z": 0}, "kinematic": False, "layer": "Procedural0"}
                           for k, t in enumerate(INSIDE)]

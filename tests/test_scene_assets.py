@@ -174,3 +174,18 @@ def test_objects_of_asset_houses_are_pickable_by_measurement(houses):
     total = [sum(v[i] for v in per.values()) for i in (0, 1)]
     assert total[0] >= 0.9 * total[1], dict(per)
     assert all(p >= 0.7 * n for p, n in per.values() if n >= 4), dict(per)
+
+
+def test_an_imported_house_records_the_database_assets_of_its_pieces(tmp_path, db):
+    from procthor_realistic import realistic_house
+
+    from interllm.scene.importer import import_procthor
+
+    house = realistic_house(0)
+    path = tmp_path / "house.json"
+    path.write_text(json.dumps(house))
+    scene = import_procthor(path)
+    ids = {c["assetId"] for o in house["objects"] for c in [o, *o.get("children", [])]}
+    recorded = {x.asset for x in [*scene.furniture.values(), *scene.objects.values()] if x.asset}
+    assert recorded and recorded <= ids and all(a in db.assets for a in recorded)
+    assert recorded == {a for a in ids if a in db.assets}

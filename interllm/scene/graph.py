@@ -103,7 +103,7 @@ class Furniture:
     # stands on, all inside ``footprint``; empty: the footprint box itself. Omitted from the file when
     # empty, so box-shaped scenes keep their bytes.
     parts: tuple[Box2, ...] = ()
-    asset: str = ""  # the ProcTHOR asset id its size comes from ("": the catalog's size; omitted then)
+    asset: str = ""  # the ProcTHOR asset it is (asset-database.json id; "": none, omitted then)
 
     @property
     def surface_height(self) -> float:
@@ -132,7 +132,7 @@ class SceneObject:
     usage: str = ""  # semantic usage text ("for eating breakfast")
     placement: str = "front"  # "front" | "deep" | "high" | "clutter": how hard it is to reach; "inside": in a closed receptacle
     unreachable: str = ""  # why the robot cannot reach it ("": reachable); kept, left out of missions
-    asset: str = ""  # the ProcTHOR asset id its size comes from ("": the catalog's size; omitted then)
+    asset: str = ""  # the ProcTHOR asset it is (asset-database.json id; "": none, omitted then)
 
 
 class _FurnitureRooms(Mapping):

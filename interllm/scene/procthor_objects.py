@@ -111,7 +111,7 @@ def _furniture(o: dict, p: str, cv: Conversion, rooms: dict[str, Room]) -> Optio
     desc = cat.furniture[fcat].description if known else ""
     box = (fx - sx / 2, fy - sy / 2, fx + sx / 2, fy + sy / 2)
     return Furniture(ids.new(fcat), fcat, room, (r4(fx), r4(fy)), (r4(sx), r4(sy), r4(top)), desc,
-                     parts=_shape_parts(o, raw, box, rooms[room], rep))
+                     parts=_shape_parts(o, raw, box, rooms[room], rep), asset=database_asset(o))
 
 
 def _flatten(children: list) -> list:
@@ -169,10 +169,12 @@ def _child(c: dict, f: Furniture, cp: str, cv: Conversion, world: tuple[dict, di
         y = float(c["position"].get("y", 0.0))
         return oid, SceneObject(oid, ocat, f.id, (r4(nx), r4(ny), r4(max(y, sz / 2))), (r4(sx), r4(sy), r4(sz)),
                                 oc.usage if oc else "", "inside",
-                                unreachable=f"inside {f.id}, which is closed: the robot does not open doors")
+                                unreachable=f"inside {f.id}, which is closed: the robot does not open doors",
+                                asset=database_asset(c))
     high = f.surface_height >= cat.placement.high_min
     obj = SceneObject(oid, ocat, f.id, (r4(nx), r4(ny), r4(f.surface_height + sz / 2)),
-                      (r4(sx), r4(sy), r4(sz)), oc.usage if oc else "", "high" if high else "front")
+                      (r4(sx), r4(sy), r4(sz)), oc.usage if oc else "", "high" if high else "front",
+                      asset=database_asset(c))
     return oid, obj
 
 
@@ -205,6 +207,13 @@ def _inside(c: dict, f: Furniture, size_z: float) -> bool:
         return False
     y = pos.get("y")
     return isinstance(y, (int, float)) and float(y) + size_z / 2 < f.surface_height - INSIDE_MARGIN
+
+
+def database_asset(o: dict) -> str:
+    """The object's ``assetId`` when ProcTHOR's asset database has it (recorded as the piece's ``asset``),
+    else ""."""
+    aid = str(o.get("assetId") or "")
+    return aid if aid in load_database().assets else ""
 
 
 def _box(o: dict, catalog_size, rep: ImportReport, what: str, default) -> tuple[float, float, float]:

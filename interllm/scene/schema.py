@@ -17,7 +17,7 @@ _SIZE3 = {"type": "array", "items": _POS, "minItems": 3, "maxItems": 3}
 PLACEMENTS = ("front", "deep", "high", "clutter", "inside")
 _WHY = {"type": "string", "description": "why the robot cannot reach it (absent: reachable)"}
 _ASSET = {"type": "string", "minLength": 1,
-          "description": "the ProcTHOR asset id (asset-database.json) its size comes from (absent: the catalog's)"}
+          "description": "the ProcTHOR asset it is (its asset-database.json id; a generated piece has its size)"}
 
 
 def _record(props: dict, required: list[str]) -> dict:
