@@ -23,8 +23,8 @@ from pathlib import Path
 
 
 def _scene_generate(args) -> int:
-    from interllm.scene import generate_scene, render_topdown  # lazy: a command loads only its own code
     from interllm.config import ConfigError  # lazy: a command loads only its own code
+    from interllm.scene import generate_scene, render_topdown  # lazy: a command loads only its own code
     from interllm.scene.catalog import CatalogError, scene_config  # lazy: a command loads only its own code
 
     try:

@@ -92,8 +92,6 @@ class ChairSpot:
 class CatalogSizes:
     """``scene.assets=catalog``: the catalog's size for every piece, nothing drawn (module doc)."""
 
-    name = "catalog"
-
     def __init__(self, cat: Catalog) -> None:
         self.cat = cat
 
@@ -112,8 +110,6 @@ class CatalogSizes:
 
 class ProcthorAssets(CatalogSizes):
     """``scene.assets=procthor``: real assets, chairs from asset groups, weighted objects (module doc)."""
-
-    name = "procthor"
 
     def __init__(self, cat: Catalog, db: ProcthorDatabase) -> None:
         super().__init__(cat)

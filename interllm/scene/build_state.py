@@ -51,7 +51,7 @@ class BuildState:
     keep_clear: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
     # scene.assets: the size (and asset) of every piece drawn (None: the catalog's sizes)
     assets: CatalogSizes | None = None
-    # furniture id -> the chairs reserved around it (scene.assets=procthor), seated once the budget allows
+    # furniture id -> the chairs reserved around it (scene.assets=procthor), seated once the targets stand
     pending_chairs: dict[str, list[Furniture]] = field(default_factory=dict)
     seated_chairs: int = 0  # chairs seated from pending_chairs (furniture beyond scene.n_furniture)
 

@@ -108,24 +108,16 @@ def _draw_pose(b: BuildState, interior: tuple[float, float, float, float], mount
     a, d = size[0], size[1]
     if mount == "wall":
         side = ("S", "N", "W", "E")[int(b.rng.integers(4))]
-        if side in ("S", "N"):
-            sx, sy = a, d
-            lo, hi = ix0 + sx / 2 + WALL_GAP, ix1 - sx / 2 - WALL_GAP
-            if lo > hi:
-                return None
-            cx = b.rng.uniform(lo, hi)
-            cy = iy0 + WALL_GAP + sy / 2 if side == "S" else iy1 - WALL_GAP - sy / 2
-            if iy1 - iy0 - sy - WALL_GAP < ring:
-                return None
-        else:
-            sx, sy = d, a
-            lo, hi = iy0 + sy / 2 + WALL_GAP, iy1 - sy / 2 - WALL_GAP
-            if lo > hi:
-                return None
-            cy = b.rng.uniform(lo, hi)
-            cx = ix0 + WALL_GAP + sx / 2 if side == "W" else ix1 - WALL_GAP - sx / 2
-            if ix1 - ix0 - sx - WALL_GAP < ring:
-                return None
+        along_x = side in ("S", "N")  # the wall runs along x (its back to the south or north wall)
+        (l0, l1), (c0, c1) = ((ix0, ix1), (iy0, iy1)) if along_x else ((iy0, iy1), (ix0, ix1))
+        lo, hi = l0 + a / 2 + WALL_GAP, l1 - a / 2 - WALL_GAP
+        if lo > hi:
+            return None
+        u = b.rng.uniform(lo, hi)  # along the wall
+        v = c0 + WALL_GAP + d / 2 if side in ("S", "W") else c1 - WALL_GAP - d / 2  # off it
+        if c1 - c0 - d - WALL_GAP < ring:
+            return None
+        (cx, cy), (sx, sy) = ((u, v), (a, d)) if along_x else ((v, u), (d, a))
         return (r4(cx), r4(cy)), (sx, sy), side
     side = "" if b.rng.random() < 0.5 else "T"
     sx, sy = (a, d) if side == "" else (d, a)

@@ -15,8 +15,8 @@ An attempt is redrawn when a stage fails or some furniture is unreachable on the
 true grid. The paper's three commands must always be satisfiable; with the catalog's sizes, an
 attempt that leaves another command of the catalog unsupported is kept as a fallback while up to
 ``FULL_SUPPORT_ATTEMPTS`` attempts look for one supporting every command (a house of ProcTHOR assets
-is taken as the first valid attempt: the search would prefer dining tables without their chairs). ``scene.meta["commands"]`` lists the commands each
-scene supports (graded: with k easy instances).
+is taken as the first valid attempt: the search would prefer dining tables without their chairs).
+``scene.meta["commands"]`` lists the commands each scene supports (graded: with k easy instances).
 """
 
 from __future__ import annotations
