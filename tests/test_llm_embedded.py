@@ -210,3 +210,55 @@ def test_log_softmax_blocks_give_the_whole_array_formula_bit_for_bit(rows):
     blocked = _log_softmax_at(logits, tokens)
     assert blocked.dtype == np.float64 and blocked.view(np.int64).tolist() == whole.view(np.int64).tolist()
     assert SOFTMAX_ROWS < 17  # the cases above cross a block boundary
+
+
+def test_prefix_trie_decodes_each_shared_prefix_once():
+    """``bread 1`` and ``bread 2`` share the empty prefix and ``bread``: one row each, owned by both
+    sequences; the rows are the distinct prefixes in first-seen order."""
+    from interllm.llm.embedded import prefix_trie
+
+    conts = [[7, 8, 1], [7, 8, 2], [9]]
+    trie = prefix_trie(conts, range(0, 3))
+    assert trie == [((), [1, 2, 3]), ((7,), [1, 2]), ((7, 8), [1, 2])]
+    assert prefix_trie(conts, range(1, 3)) == [((), [1, 2]), ((7,), [1]), ((7, 8), [1])]  # sequence 1 = conts[1]
+    assert sum(len(c) for c in conts) == 7 and len(trie) == 3
+
+
+def test_trie_scores_agree_with_one_sequence_each_and_leave_the_prompt(backend):
+    """The backend's trie and the layout before it (one sequence per continuation) decode the same
+    tokens over the same prompt cells: scores within CPU rounding of each other, the trie with fewer
+    rows, and the context holds the prompt alone afterwards."""
+    import llama_cpp
+
+    from interllm.llm.embedded import prefix_trie
+
+    prompt = "Command: bring the bread to the dining table.\nThe object to pick up:"
+    conts = [backend.tokenize(c, bos=False) for c in (" bread_1", " bread_2", " bread_10", " mug_3")]
+    toks = backend.tokenize(prompt)
+    backend._start_call("test")
+    backend._prefill(toks[:-1])
+    group = range(len(conts))
+    trie = backend._score_trie(toks[-1], conts, group)
+    seqs = backend._score_sequences(toks[-1], conts, group)
+    assert len(prefix_trie(conts, group)) < sum(len(c) for c in conts)
+    assert all(abs(a - b) < 0.15 for a, b in zip(trie, seqs, strict=True)), (trie, seqs)
+    assert int(np.argmax(trie)) == int(np.argmax(seqs))
+    mem = backend.llm._ctx.memory
+    assert [llama_cpp.llama_memory_seq_pos_max(mem, s) for s in range(5)] == [len(toks) - 2] + [-1] * 4
+    assert backend._score_trie(toks[-1], conts, group) == trie  # a function of the request
+
+
+def test_embedded_score_keys_name_the_scorer(backend, tmp_path):
+    """Answers of another decode layout are never served from the cache: the scorer is in the key."""
+    from interllm.llm import embedded
+
+    client = make_client(LLMConfig(cache_dir=str(tmp_path / "c"), n_ctx=1024), backend=backend)
+    request = ScoreRequest(purpose="proposal", prompt="Useful item:", continuations=(" cup",))
+    key, summary = client.score_key(request)
+    assert summary["scorer"] == embedded.SCORER
+    backend_class_scorer = type(backend).scorer
+    try:
+        type(backend).scorer = property(lambda self: "one-sequence-each")
+        assert client.score_key(request)[0] != key
+    finally:
+        type(backend).scorer = backend_class_scorer

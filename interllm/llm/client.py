@@ -129,6 +129,9 @@ class LLMClient:
             "calibration_prompt": request.calibration_prompt,
             "template": self._template(request.template),
         }
+        scorer = getattr(self.backend, "scorer", "")  # a backend that names its decode layout
+        if scorer:
+            summary["scorer"] = scorer
         return cache_key(summary), summary
 
     # -- logging ------------------------------------------------------------------------------

@@ -8,15 +8,20 @@ Generation: the prompt text is built here (the model is a base model; see :func:
 and decoded with a GBNF grammar compiled from the JSON schema (``LlamaGrammar.from_json_schema``),
 so every answer parses. The sampling seed is passed per call.
 
-Scoring: ``score(prompt, continuations)`` evaluates the prompt once (sequence 0) and then all
-continuations together: each continuation is a llama.cpp sequence of its own that shares the
-prompt's KV cells (``llama_memory_seq_cp``, no copy), and up to ``SCORE_SEQS`` of them (at most
-``n_batch`` tokens) go into one batched decode; afterwards their cells are dropped
+Scoring: ``score(prompt, continuations)`` evaluates the prompt once (sequence 0) and then the
+continuations in groups of up to ``SCORE_SEQS`` (at most ``n_batch`` tokens), one batched decode per
+group, as a prefix trie (:data:`SCORER`): each continuation is a llama.cpp sequence of its own that
+shares the prompt's KV cells (``llama_memory_seq_cp``, no copy), and every distinct prefix of the
+group's continuations (``bread_1`` and ``bread_2`` share ``bread_``) is decoded once, as one token
+that belongs to every sequence through it (:func:`prefix_trie`); each continuation's log-probs are
+read from its prefixes' rows. Afterwards the continuations' cells are dropped
 (``llama_memory_seq_rm``) and the context holds the prompt again. The context is built with
 ``n_seq_max = SCORE_SEQS + 1`` and a unified KV cache for this; where the installed llama-cpp-python
 cannot build that context, each continuation is decoded alone on sequence 0 instead. The groups are
 a function of the request alone, so a request's scores do not depend on what ran before. The score
 of a continuation is the mean log-prob of its tokens (log-softmax over the vocabulary, vectorised).
+The trie decodes fewer rows than one sequence per continuation and is nearer to scoring each
+continuation alone (``benchmarks/bench_trie_scoring.py``; docs/benchmarks.md).
 Prompt tokens served from the KV prefix cache (the longest common prefix with the tokens already
 in the context) are counted and reported as ``prompt_tokens_reused``.
 
@@ -56,6 +61,9 @@ from interllm.llm.types import LLMOptions, Message
 
 CHUNK = 64  # [tokens] prompt evaluation chunk; KV reuse happens in whole aligned chunks
 SCORE_SEQS = 32  # continuations scored in one batched decode (llama.cpp sequences 1..SCORE_SEQS)
+# how a group of continuations is decoded; part of every embedded score request's cache key, so that
+# answers of another layout (the earlier one sequence per continuation) are never mixed in
+SCORER = "prefix-trie-1"
 
 
 def format_messages(messages: Sequence[Message], style: str = "gemma") -> str:
@@ -121,6 +129,12 @@ def _log_softmax_at(logits: np.ndarray, tokens: Sequence[int]) -> np.ndarray:
     array at once; blocks of rows in a reused scratch only spare the two [rows, vocab] temporaries,
     whose page faults cost more than the arithmetic (``tests/test_llm_embedded.py`` checks the
     identity)."""
+    return logits[np.arange(len(tokens)), np.asarray(tokens)].astype(np.float64) - _logsumexp_rows(logits)
+
+
+def _logsumexp_rows(logits: np.ndarray) -> np.ndarray:
+    """log(sum(exp(row))) of every row of ``logits`` [rows, vocab], float64 (each row alone: the
+    value of a row does not depend on the rows beside it)."""
     rows, vocab = logits.shape
     buf = _block_scratch(vocab)
     lse = np.empty(rows, dtype=np.float64)
@@ -131,7 +145,19 @@ def _log_softmax_at(logits: np.ndarray, tokens: Sequence[int]) -> np.ndarray:
         np.subtract(block, m, out=shifted)
         np.exp(shifted, out=shifted)
         lse[start:start + len(block)] = np.log(shifted.sum(axis=1, dtype=np.float64)) + m[:, 0].astype(np.float64)
-    return logits[np.arange(len(tokens)), np.asarray(tokens)].astype(np.float64) - lse
+    return lse
+
+
+def prefix_trie(conts: Sequence[Sequence[int]], group: range) -> list[tuple[tuple[int, ...], list[int]]]:
+    """Every distinct prefix that ``conts[group]`` decode (``conts[k][:i]`` for ``i < len(conts[k])``,
+    the empty one included), in first-seen order, each with the sequence ids through it (sequence
+    ``1 + j`` is ``group[j]``). Continuation ``k``'s token ``i`` is predicted from prefix
+    ``conts[k][:i]``'s row."""
+    members: dict[tuple[int, ...], list[int]] = {}
+    for sid, k in enumerate(group, start=1):
+        for i in range(len(conts[k])):
+            members.setdefault(tuple(conts[k][:i]), []).append(sid)
+    return list(members.items())
 
 
 def score_groups(lengths: Sequence[int], max_seqs: int, max_tokens: int) -> list[range]:
@@ -176,6 +202,7 @@ class EmbeddedBackend:
         self._deadline = math.inf  # time.monotonic() by which the current call must end [s]
         self._what = ""
         self.multi_sequence = False  # the context scores SCORE_SEQS continuations per decode (set on load)
+        self._shared_batch: Optional[llama_internals.SharedPrefixBatch] = None  # the trie's batch (on load)
 
     # -- identity ---------------------------------------------------------------------------
     def model_name(self) -> str:
@@ -184,6 +211,11 @@ class EmbeddedBackend:
     def model_id(self) -> str:
         """sha256 of the GGUF (cache-key identity; no model load needed)."""
         return gguf_sha256(self.cfg.model)
+
+    @property
+    def scorer(self) -> str:
+        """How continuations are decoded (:data:`SCORER`): part of the score requests' cache keys."""
+        return SCORER
 
     def check(self) -> None:
         resolve_model_path(self.cfg.model)
@@ -202,6 +234,8 @@ class EmbeddedBackend:
                         seed=self.cfg.seed, logits_all=False, verbose=False)
             try:
                 self.multi_sequence = llama_internals.prepare(llm, SCORE_SEQS + 1)
+                if self.multi_sequence:
+                    self._shared_batch = llama_internals.SharedPrefixBatch(llm.n_batch, SCORE_SEQS)
             except BaseException:
                 llm.close()
                 raise
@@ -289,15 +323,23 @@ class EmbeddedBackend:
         return keep
 
     def _score_group(self, last_prompt_token: int, conts: list[list[int]], group: range) -> list[float]:
-        """Mean log-probs of ``conts[group]`` after the context + ``last_prompt_token``, decoded in one
-        batch (one sequence each over the prompt's cells, or sequence 0 for a group of one on a
-        single-sequence context); the context holds the prompt again afterwards."""
+        """Mean log-probs [nats/token] of ``conts[group]`` after the context + ``last_prompt_token``,
+        decoded in one batch (a prefix trie over the prompt's cells, or sequence 0 for a group of one
+        on a single-sequence context); the context holds the prompt again afterwards."""
         llm = self.llm
         n_past = llm.n_tokens
         longest = max(len(conts[k]) for k in group)
         if n_past + longest > self.cfg.n_ctx:  # checked before any sequence is copied: nothing to undo
             raise ValueError(f"prompt ({n_past + 1} tokens) + a continuation of {longest} tokens exceed "
                              f"llm.n_ctx={self.cfg.n_ctx}; raise llm.n_ctx or shorten the request")
+        if self._shared_batch is not None:
+            return self._score_trie(last_prompt_token, conts, group)
+        return self._score_sequences(last_prompt_token, conts, group)
+
+    def _score_sequences(self, last_prompt_token: int, conts: list[list[int]], group: range) -> list[float]:
+        """:meth:`_score_group` as one sequence per continuation (the layout before the trie; the
+        only one a single-sequence context has, with a group of one)."""
+        llm = self.llm
         seqs = [[last_prompt_token] + conts[k][:-1] for k in group]
         rows = [(k, i) for k in group for i in range(len(conts[k]))]  # one per decoded token, in batch order
         lps = llama_internals.decode_after_prompt(
@@ -307,6 +349,23 @@ class EmbeddedBackend:
         for (k, _), lp in zip(rows, lps, strict=True):
             sums[k].append(float(lp))
         return [sum(sums[k]) / len(sums[k]) for k in group]
+
+    def _score_trie(self, last_prompt_token: int, conts: list[list[int]], group: range) -> list[float]:
+        """:meth:`_score_group` through the prefix trie (one row per distinct prefix)."""
+        trie = prefix_trie(conts, group)
+        row_of = {prefix: j for j, (prefix, _) in enumerate(trie)}
+        rows = [(prefix[-1] if prefix else last_prompt_token, len(prefix), sids) for prefix, sids in trie]
+
+        def means(logits: np.ndarray) -> list[float]:
+            lse = _logsumexp_rows(logits)
+            out = []
+            for k in group:
+                js = [row_of[tuple(conts[k][:i])] for i in range(len(conts[k]))]
+                lp = logits[js, conts[k]].astype(np.float64) - lse[js]
+                out.append(sum(float(x) for x in lp) / len(lp))
+            return out
+
+        return llama_internals.decode_shared_prefixes(self.llm, self._shared_batch, rows, len(group), means)
 
     def _score_prompt(self, prompt: str, conts: list[list[int]]) -> tuple[list[float], int, int]:
         tokens = self.tokenize(prompt)
@@ -348,6 +407,9 @@ class EmbeddedBackend:
 
     def close(self) -> None:
         self._aligned = 0
+        if self._shared_batch is not None:
+            self._shared_batch.close()
+            self._shared_batch = None
         if self._llm is not None:
             try:
                 self._llm.close()

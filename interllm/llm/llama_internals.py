@@ -15,7 +15,8 @@ What is used, in two groups:
   context-params struct's ``n_seq_max`` and ``kv_unified`` fields,
   ``llama_cpp._internals.LlamaContext(model=, params=, verbose=)`` (a context of several sequences
   over one unified KV cache, swapped into ``Llama._ctx``), ``Llama._model``, ``Llama.context_params``
-  and the binding ``llama_memory_seq_cp``.
+  and the bindings ``llama_memory_seq_cp``, ``llama_batch_init`` and ``llama_batch_free`` (a batch
+  whose tokens may belong to several sequences: :class:`SharedPrefixBatch`).
 
 :func:`prepare` checks both groups once the model is loaded. A gap in the first is an
 :class:`LlamaInternalsError` naming the installed and the tested release. A gap in the second
@@ -51,7 +52,7 @@ CORE_BINDINGS = ("llama_decode", "llama_get_logits", "llama_memory_seq_rm")
 BATCH_FIELDS = ("n_tokens", "token", "pos", "n_seq_id", "seq_id", "logits")
 MULTI_SEQUENCE_ATTRIBUTES = ("_model", "context_params")
 MULTI_SEQUENCE_FIELDS = ("n_seq_max", "kv_unified")
-MULTI_SEQUENCE_BINDINGS = ("llama_memory_seq_cp",)
+MULTI_SEQUENCE_BINDINGS = ("llama_memory_seq_cp", "llama_batch_init", "llama_batch_free")
 CONTEXT_KEYWORDS = ("model", "params", "verbose")  # LlamaContext(model=..., params=..., verbose=...)
 
 
@@ -256,3 +257,55 @@ def decode_after_prompt(llm: Any, seqs: Sequence[Sequence[int]], read_logits: Ca
         for sid in sids:
             bindings.llama_memory_seq_rm(mem, sid, -1 if multi_sequence else n_past, -1)
 
+
+
+class SharedPrefixBatch:
+    """A ``llama_batch`` of up to ``n_tokens`` tokens, each of which may belong to up to ``n_seq_max``
+    sequences (``Llama``'s own batch gives every token one sequence). Owned by one backend; freed by
+    :meth:`close`."""
+
+    def __init__(self, n_tokens: int, n_seq_max: int) -> None:
+        self.n_tokens, self.n_seq_max = n_tokens, n_seq_max
+        self.batch = _bindings().llama_batch_init(n_tokens, 0, n_seq_max)
+
+    def close(self) -> None:
+        if self.batch is not None:
+            _bindings().llama_batch_free(self.batch)
+            self.batch = None
+
+
+def decode_shared_prefixes(llm: Any, shared: SharedPrefixBatch, rows: Sequence[tuple[int, int, Sequence[int]]],
+                           n_seqs: int, read_logits: Callable[[np.ndarray], T]) -> T:
+    """Decode, in one batch with logits for every row, tokens that several continuations share.
+
+    ``rows[j] = (token, offset, sequence ids)``: the token sits at position ``llm.n_tokens + offset``
+    (right after the prompt the context holds) in each of the given sequences (ids in
+    ``1..n_seqs``, each a copy of the prompt's cells of sequence 0). Returns ``read_logits(logits)``
+    (``logits``: [rows, vocab] in the order of ``rows``, valid only during the call) and drops the
+    decoded cells again, so the context holds the prompt alone. Needs the context of :func:`prepare`.
+    """
+    if not 0 < len(rows) <= shared.n_tokens:
+        raise ValueError(f"decode_shared_prefixes takes 1 to {shared.n_tokens} rows, got {len(rows)}")
+    if not 0 < n_seqs <= shared.n_seq_max:
+        raise ValueError(f"decode_shared_prefixes takes 1 to {shared.n_seq_max} sequences, got {n_seqs}")
+    bindings = _bindings()
+    n_past = llm.n_tokens
+    ctx, mem = llm._ctx.ctx, llm._ctx.memory
+    b = shared.batch
+    for sid in range(1, n_seqs + 1):
+        bindings.llama_memory_seq_cp(mem, 0, sid, 0, n_past)
+    b.n_tokens = 0
+    for j, (tok, offset, sids) in enumerate(rows):
+        b.token[j], b.pos[j], b.n_seq_id[j], b.logits[j] = tok, n_past + offset, len(sids), True
+        for q, sid in enumerate(sids):
+            b.seq_id[j][q] = sid
+        b.n_tokens += 1
+    try:
+        if bindings.llama_decode(ctx, b) != 0:
+            raise RuntimeError(f"llama_decode failed on a batch of {len(rows)} shared continuation tokens")
+        nv = llm.n_vocab()
+        logits = np.ctypeslib.as_array(bindings.llama_get_logits(ctx), shape=(len(rows) * nv,)).reshape(len(rows), nv)
+        return read_logits(logits)
+    finally:  # drop the continuations: the context holds the prompt again
+        for sid in range(1, n_seqs + 1):
+            bindings.llama_memory_seq_rm(mem, sid, -1, -1)
