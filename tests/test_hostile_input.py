@@ -457,7 +457,8 @@ HELD_STAGE = textwrap.dedent("""
 def test_14_ctrl_c_in_a_stage_is_one_line_and_status_130(tmp_path):
     (tmp_path / "params.yaml").write_text(json.dumps({
         "data_dir": str(tmp_path / "data"), "llm": ORACLE,
-        "scene": {"name": "tiny", "n_rooms": 4, "n_furniture": 8, "n_objects": 12, "n_scenes": 2}}))
+        "scene": {"name": "tiny", "n_rooms": 4, "n_furniture": 8, "n_objects": 12, "n_scenes": 2},
+        "jobs": 1}))  # held in this process: a worker process would not see the held make_scene
     proc = subprocess.Popen([sys.executable, "-c", HELD_STAGE, "--params", str(tmp_path / "params.yaml")],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "INTERLLM_PROGRESS": "0"})

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from interllm.config import ExperimentConfig
 from interllm.core.records import PLANNERS_FILE, MissionRecord
-from interllm.errors import INTERRUPTED_EXIT, StageError, UserError, output_error
+from interllm.errors import StageError, UserError, output_error
 from interllm.imports_log import log_loaded_modules
 from interllm.io import check_name, child_path, ensure_dir, read_json, write_json
 from interllm.lifetime import die_with_parent
@@ -36,7 +36,7 @@ from interllm.sim.world import World
 from interllm.stages.inputs import PROBE_FILE, load_grids, load_scene_and_missions, scene_ids, stage_client
 from interllm.stages.provenance import for_run_log, provenance
 from interllm.stages.validate import check_registered, import_planner_modules
-from interllm.stages.workers import Job, failed_message, merge_call_logs, usable_cores
+from interllm.stages.workers import Job, exit_quietly, failed_message, merge_call_logs, usable_cores
 
 
 class MissionWorker:
@@ -107,10 +107,7 @@ def command_results_logger(recorder):
 _WORKER: MissionWorker | None = None  # the worker process's state (see _init_worker)
 
 
-def _exit_quietly(signum: int, frame) -> None:
-    """A worker's SIGINT handler: stop at once with the shell's status for Ctrl-C, no traceback (its
-    open run log stays a .mcap.partial; the finished ones are complete)."""
-    os._exit(INTERRUPTED_EXIT)
+_exit_quietly = exit_quietly  # a worker's SIGINT handler (interllm.stages.workers)
 
 
 def _init_worker(parent: int, ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:

@@ -5,14 +5,20 @@ out in red)."""
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import dataclasses
 import logging
+import multiprocessing
+import os
+import signal
+import traceback
 from pathlib import Path
 from typing import Optional
 
 from interllm.config import MAX_SCENES, ExperimentConfig
-from interllm.errors import MissingInputError
+from interllm.errors import MissingInputError, StageError, UserError, output_error
 from interllm.io import atomic_write_bytes, atomic_write_text, child_path, ensure_dir, read_json, write_json
+from interllm.lifetime import die_with_parent
 from interllm.progress import progress
 from interllm.scene.benchmark import (
     Benchmark,
@@ -33,6 +39,7 @@ from interllm.scene.validate import SceneValidationError, load_scene_file
 from interllm.sim.build import build_world_spec
 from interllm.sim.measurements import MEASUREMENTS_FILE
 from interllm.stages.feasibility import SceneFeasibility, feasibility_record, measure_scene
+from interllm.stages.workers import exit_quietly, usable_cores
 
 log = logging.getLogger(__name__)
 
@@ -189,29 +196,78 @@ def unpickable_markers(scene: SceneGraph, record: dict) -> list[tuple[float, flo
 
 
 def run_scenes(cfg: ExperimentConfig, out_dir: Path) -> list[str]:
-    """Write every scene of the experiment into ``out_dir/<scene_id>/``; returns the scene ids."""
+    """Write every scene of the experiment into ``out_dir/<scene_id>/``; returns the scene ids.
+
+    The houses are independent, so they are written in ``jobs`` worker processes (default: one per
+    usable core; ``jobs=1`` writes them in this process); each house's files are a function of the
+    config and its index alone, the same bytes however many workers write them."""
     bench = open_configured_benchmark(cfg)  # a config it was not drawn with fails before anything is written
     out_dir = ensure_dir(out_dir)
-    ids = []
     n = scene_count(cfg, bench)
     if cfg.scene.import_path and bench is None:
         check_distinct_ids(imported_files(cfg.scene.import_path))
-    for i in progress(range(n), "scenes", total=n):
-        scene = make_scene(cfg, i, bench)
-        d = ensure_dir(child_path(out_dir, scene.id, what="the scene id ($.id of the scene)"))
-        atomic_write_text(d / "scene.json", scene.to_json())
-        presumed = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="presumed")
-        true = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="true")
-        atomic_write_bytes(d / "grid.npz", OccupancyGrid.pair_npz_bytes(presumed, true, cfg.sim.robot_radius))
-        atomic_write_text(d / "scene.xml", build_world_spec(scene, robot=False, sim_cfg=cfg.sim).to_xml())
-        grids = {"presumed": presumed, "true": true}
-        cat = scene_commands(cfg, scene)
-        meas = measure(cfg, scene, grids, cat)
-        missions, record = benchmark_missions(cfg, bench, scene, grids, meas) if bench else \
-            scene_missions(cfg, scene, grids, meas, cat)
-        save_missions(d / "missions.json", missions)
-        write_json(d / "feasibility.json", record)
-        meas.measurements.write(d / MEASUREMENTS_FILE)  # what the stages after need not measure again
-        render_topdown(scene, d / "topdown.png", grid=presumed, markers=unpickable_markers(scene, record))
-        ids.append(scene.id)
-    return ids
+    n_workers = min(cfg.jobs or usable_cores(), n)
+    if n_workers <= 1:
+        return [write_scene(cfg, i, bench, out_dir) for i in progress(range(n), "scenes", total=n)]
+    return _write_in_workers(cfg, n, out_dir, n_workers)
+
+
+def write_scene(cfg: ExperimentConfig, index: int, bench: Optional[Benchmark], out_dir: Path) -> str:
+    """Scene ``index``: its graph, grids, MuJoCo world, measurement, missions and top-down picture in
+    ``out_dir/<scene_id>/``; returns the scene id."""
+    scene = make_scene(cfg, index, bench)
+    d = ensure_dir(child_path(out_dir, scene.id, what="the scene id ($.id of the scene)"))
+    atomic_write_text(d / "scene.json", scene.to_json())
+    presumed = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="presumed")
+    true = rasterize(scene, cfg.scene.grid_resolution, cfg.sim.robot_radius, doors="true")
+    atomic_write_bytes(d / "grid.npz", OccupancyGrid.pair_npz_bytes(presumed, true, cfg.sim.robot_radius))
+    atomic_write_text(d / "scene.xml", build_world_spec(scene, robot=False, sim_cfg=cfg.sim).to_xml())
+    grids = {"presumed": presumed, "true": true}
+    cat = scene_commands(cfg, scene)
+    meas = measure(cfg, scene, grids, cat)
+    missions, record = benchmark_missions(cfg, bench, scene, grids, meas) if bench else \
+        scene_missions(cfg, scene, grids, meas, cat)
+    save_missions(d / "missions.json", missions)
+    write_json(d / "feasibility.json", record)
+    meas.measurements.write(d / MEASUREMENTS_FILE)  # what the stages after need not measure again
+    render_topdown(scene, d / "topdown.png", grid=presumed, markers=unpickable_markers(scene, record))
+    return scene.id
+
+
+def _write_in_workers(cfg: ExperimentConfig, n: int, out_dir: Path, n_workers: int) -> list[str]:
+    ctx = multiprocessing.get_context("spawn")  # no fork of a parent with threads (progress bar)
+    with cf.ProcessPoolExecutor(n_workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)) as pool:
+        futures = {pool.submit(_write_in_worker, cfg, i, out_dir): i for i in range(n)}
+        try:
+            for fut in progress(cf.as_completed(futures), f"scenes ({n_workers} workers)", total=n):
+                fut.result()
+        except cf.process.BrokenProcessPool:
+            raise StageError(f"scenes stage: a worker process died (killed, out of memory?) while writing {n} "
+                             f"scenes in {n_workers} workers; rerun with jobs=1 to write them in one process and "
+                             f"see which one fails (the finished scenes are kept)") from None
+        except BaseException:
+            pool.shutdown(cancel_futures=True)
+            raise
+    return [f.result() for f in sorted(futures, key=futures.get)]  # in scene order
+
+
+def _init_worker(parent: int) -> None:
+    """Worker initializer: die with the parent, leave a Ctrl-C to it (``workers.exit_quietly``) and
+    log warnings as the stage's own process does."""
+    die_with_parent(parent)
+    signal.signal(signal.SIGINT, exit_quietly)
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+
+
+def _write_in_worker(cfg: ExperimentConfig, index: int, out_dir: Path) -> str:
+    """:func:`write_scene` in a worker; a failure comes back naming the scene (a user-fixable one as its
+    message, any other with the worker's traceback: the original may not survive pickling)."""
+    try:
+        return write_scene(cfg, index, open_configured_benchmark(cfg), out_dir)
+    except UserError as e:
+        raise StageError(f"scenes stage: scene {index} failed: {e}") from None
+    except Exception as e:
+        if (unwritable := output_error(e)) is not None:  # a full disk, a read-only folder
+            raise StageError(f"scenes stage: scene {index} failed: {unwritable}") from None
+        raise RuntimeError(f"scenes stage: scene {index} failed: {type(e).__name__}: {e}\n"
+                           f"{traceback.format_exc()}") from None

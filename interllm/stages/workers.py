@@ -1,5 +1,5 @@
-"""Worker processes of the missions stage: how many, one call log each merged in job order, dying
-with the parent, and failures named by their job."""
+"""Worker processes of the scenes and missions stages: how many, a Ctrl-C left to the parent, one
+call log each merged in job order, and failures named by their job."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import json
 import os
 from pathlib import Path
 
+from interllm.errors import INTERRUPTED_EXIT
 from interllm.io import atomic_write_text
 
 Job = tuple[str, str, str]  # (planner, scene id, mission id)
@@ -18,6 +19,13 @@ def usable_cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not on Linux
         return os.cpu_count() or 1
+
+
+def exit_quietly(signum: int, frame) -> None:
+    """A worker's SIGINT handler: stop at once with the shell's status for Ctrl-C, no traceback (the
+    parent says what it stopped; a worker's traceback would only repeat it). Files a worker was
+    writing stay partial or absent (every output is written atomically); the finished ones are kept."""
+    os._exit(INTERRUPTED_EXIT)
 
 
 def failed_message(job: Job, e: BaseException, out_dir: Path) -> str:
