@@ -251,5 +251,5 @@ def test_every_experiment_on_the_committed_benchmark_was_drawn_with_its_config(e
     monkeypatch.chdir(ROOT)  # benchmark_dir is relative to the repository, as DVC and pipeline.run use it
     cfg = to_config(compose([f"experiment={experiment}"]))
     bench = open_configured_benchmark(cfg)
-    assert bench.name == ("mechanism-v1" if experiment == "mechanism" else "paper-v2")
+    assert bench.name == ("mechanism-v2" if experiment == "mechanism" else "paper-v3")
     assert len(bench.scenes_frozen) >= cfg.scene.n_scenes

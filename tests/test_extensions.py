@@ -4,6 +4,7 @@ and run on the quick experiment (one paper-size scene, the paper's mission) thro
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import shutil
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from interllm.config import ConfigError, from_dict
+from interllm.config import ConfigError
 from interllm.core.actions import plan_to_list
 from interllm.core.seeding import llm_sample_seed
 from interllm.llm.backend import BACKENDS, Generation, Scores
@@ -121,10 +122,12 @@ def registered():
 
 
 def _quick(tmp_path, **llm):
-    return from_dict({"jobs": 1,  # a planner registered here exists in this process only
-                      "scene": {"n_scenes": 1}, "mission": {"n_missions": 1},
-                      "llm": {"cache_dir": str(tmp_path / "cache"), **llm},
-                      "planner": {"names": ["first_candidate", "sayplan"]}})
+    """The quick experiment (the committed benchmark's first house and mission) with two planners."""
+    from pipeline._hydra import compose, to_config
+
+    cfg = to_config(compose(["experiment=quick", "jobs=1",  # a planner registered here exists in this process only
+                             f"benchmark_dir={ROOT / 'data' / 'benchmarks'}", "planner.names=[first_candidate,sayplan]"]))
+    return dataclasses.replace(cfg, llm=dataclasses.replace(cfg.llm, cache_dir=str(tmp_path / "cache"), **llm))
 
 
 @pytest.mark.integration

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from interllm.config import from_dict
 from interllm.stages.candidates import run_candidates
 from interllm.stages.missions import run_missions
 from interllm.stages.scenes import run_scenes
+from pipeline._hydra import compose, to_config
 
 pytestmark = pytest.mark.integration  # whole-pipeline runs: `make test-all`, not the fast tier
 
@@ -27,10 +27,11 @@ def _messages(p: Path):
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
-    """Scene 0 and its first mission of the default experiment, candidates from the committed cache."""
+    """Scene 0 and its first mission of the default experiment (the committed benchmark), candidates
+    from the committed cache."""
     root = tmp_path_factory.mktemp("par")
-    cfg = from_dict({"scene": {"n_scenes": 1}, "mission": {"limit_missions": 1},
-                     "llm": {"cache_mode": "replay", "cache_dir": str(ROOT / "data" / "llm_cache")}})
+    cfg = to_config(compose(["scene.n_scenes=1", "mission.limit_missions=1", "llm.cache_mode=replay",
+                             f"llm.cache_dir={ROOT / 'data' / 'llm_cache'}", f"benchmark_dir={ROOT / 'data' / 'benchmarks'}"]))
     run_scenes(cfg, root / "scenes")
     run_candidates(cfg, root / "scenes", root / "candidates")
     return root, cfg

@@ -116,12 +116,12 @@ def test_editing_a_module_leaves_every_stage_that_does_not_run_it_up_to_date(qui
 
 
 def test_the_runs_name_their_benchmark_in_metrics_json_and_the_report(quick_repo):
-    """experiment=quick runs the first house and mission of the committed benchmark paper-v2; the
+    """experiment=quick runs the first house and mission of the committed benchmark paper-v3; the
     unchanged simulator measures every slot as frozen."""
     repo, _, _ = quick_repo
     b = json.loads((repo / "data" / "metrics" / "metrics.json").read_text())["benchmark"]
-    assert b["name"] == "paper-v2" and b["slots"] == 9 and b["slots_changed"] == 0
-    assert "Benchmark: **paper-v2**" in (repo / "data" / "report" / "report.md").read_text()
+    assert b["name"] == "paper-v3" and b["slots"] == 9 and b["slots_changed"] == 0
+    assert "Benchmark: **paper-v3**" in (repo / "data" / "report" / "report.md").read_text()
 
 
 def test_the_real_model_answered(quick_repo):

@@ -133,14 +133,13 @@ def test_stages_run_with_the_project_interpreter_whatever_path_says(tmp_path):
 # writing, and cannot come too late on a slow machine (the runs would be over) or too early.
 KILL_SCRIPT = """
 import sys
-from interllm.config import from_dict
 from interllm.stages.candidates import run_candidates
 from interllm.stages.missions import run_missions
 from interllm.stages.scenes import run_scenes
+from pipeline._hydra import compose, to_config
 root = sys.argv[1]
-cfg = from_dict({"jobs": 2, "scene": {"n_scenes": 1}, "mission": {"limit_missions": 2},
-                 "planner": {"modules": ["helpers.held_runs"]},
-                 "llm": {"cache_mode": "replay", "cache_dir": sys.argv[2]}})
+cfg = to_config(compose(["jobs=2", "scene.n_scenes=1", "mission.limit_missions=2", "planner.modules=[helpers.held_runs]",
+                         "llm.cache_mode=replay", "llm.cache_dir=" + sys.argv[2], "benchmark_dir=" + sys.argv[3]]))
 run_scenes(cfg, root + "/scenes")
 run_candidates(cfg, root + "/scenes", root + "/candidates")
 print("missions", flush=True)
@@ -170,7 +169,8 @@ def test_a_killed_two_worker_run_leaves_nothing_running(tmp_path):
 
     held = tmp_path / "held"
     held.mkdir()
-    proc = subprocess.Popen([sys.executable, "-c", KILL_SCRIPT, str(tmp_path), str(ROOT / "data" / "llm_cache")],
+    proc = subprocess.Popen([sys.executable, "-c", KILL_SCRIPT, str(tmp_path), str(ROOT / "data" / "llm_cache"),
+                             str(ROOT / "data" / "benchmarks")],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "INTERLLM_PROGRESS": "0", HELD_DIR_ENV: str(held),
                                  "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT / "tests"),
