@@ -37,7 +37,8 @@ def test_paper_experiment_is_the_papers_protocol():
     cfg = OmegaConf.to_object(compose([]))
     assert cfg.experiment == "paper"
     assert (cfg.scene.n_rooms, cfg.scene.n_furniture, cfg.scene.n_objects) == (9, 26, 30)
-    assert cfg.scene.n_scenes == 3 and cfg.mission.n_missions == 10
+    assert (cfg.scene.n_scenes, cfg.mission.n_missions) == (10, 3) and cfg.benchmark == "paper-v3"  # 10 houses x 3
+    assert (cfg.scene.assets, cfg.mission.commands, cfg.metrics.interval) == ("procthor", "open", "cr2")
     assert cfg.mission.commands_per_mission == 3 and cfg.mission.include_paper_mission
     planners = ["inter_llm", "sayplan", "moma_llm", "nothing", "optimal"]  # the three, then the references
     # every registered planner but the ablation variants (planner=mechanism runs those)
