@@ -111,9 +111,9 @@ lint: install
 MECHANISM_ERRORS ?= 0,0.25
 mechanism: install
 	$(if $(FRESH),rm -rf multirun/mechanism)
-	$(PY) -m pipeline.run -m experiment=mechanism llm.oracle_error=$(MECHANISM_ERRORS) resume=true \
+	$(PY) -m pipeline.run -m experiment=mechanism llm.oracle_error=$(MECHANISM_ERRORS) resume=true scenes_cache=multirun/scenes_cache \
 	    hydra.sweep.dir=multirun/mechanism 'hydra.sweep.subdir=oracle_error_$${llm.oracle_error}'
-	$(PY) -m pipeline.run experiment=mechanism_model resume=true hydra.run.dir=multirun/mechanism/embedded
+	$(PY) -m pipeline.run experiment=mechanism_model resume=true scenes_cache=multirun/scenes_cache hydra.run.dir=multirun/mechanism/embedded
 	$(PY) -m pipeline.collect_runs multirun/mechanism data/mechanism
 	$(PY) -m interllm.cli results diff --file data/mechanism/*/metrics/metrics.json
 
@@ -121,7 +121,8 @@ mechanism: install
 # default experiment, the sweeps and the mechanism runs (about 1.5 h on 2 cores, committed cache).
 # Interrupted, it resumes job by job: DVC skips the default run's finished stages, and every sweep
 # or mechanism job already finished with the same config, code and benchmark is skipped
-# (interllm/stages/resume.py). FRESH=1 discards the finished jobs first.
+# (interllm/stages/resume.py); the jobs of one scene setting share its scenes, made once
+# (scenes_cache, interllm/stages/shared_scenes.py). FRESH=1 discards the finished jobs first.
 results: repro sweeps mechanism
 
 # The sweeps: each experiment of SWEEPS runs the grid its conf/experiment/<name>.yaml declares
@@ -134,7 +135,7 @@ results: repro sweeps mechanism
 SWEEPS ?= encoding_comparison oracle_sweep m_ablation temperature_ablation estimate_comparison
 sweeps: install
 	for e in $(SWEEPS); do $(if $(FRESH),rm -rf multirun/sweeps/$$e;) \
-	    $(PY) -m pipeline.run -m experiment=$$e resume=true hydra.sweep.dir=multirun/sweeps/$$e || exit 1; done
+	    $(PY) -m pipeline.run -m experiment=$$e resume=true scenes_cache=multirun/scenes_cache hydra.sweep.dir=multirun/sweeps/$$e || exit 1; done
 	$(PY) -m pipeline.collect_sweeps multirun/sweeps data/sweeps $(SWEEPS)
 	$(MAKE) sweep-report
 

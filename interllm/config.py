@@ -357,10 +357,9 @@ class ExperimentConfig:
     benchmark: str = ""
     benchmark_dir: str = "data/benchmarks"
     verbose: bool = False
-    # skip a run whose folder already holds a finished run of the same config, code and benchmark
-    # (interllm/stages/resume.py): what makes `make results` resumable job by job
-    resume: bool = False
+    resume: bool = False  # skip a run already finished with this config, code, benchmark (stages/resume.py)
     jobs: int = 0  # worker processes for the missions stage (0: one per CPU core); results do not depend on it
+    scenes_cache: str = ""  # scenes shared by a re-make's jobs (interllm/stages/shared_scenes.py); "": none
     scene: SceneConfig = field(default_factory=SceneConfig)
     mission: MissionConfig = field(default_factory=MissionConfig)
     llm: LLMConfig = field(default_factory=LLMConfig)

@@ -25,6 +25,7 @@ from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, ou
 from interllm.io import confine_writes, exclusive_folder, read_json
 from interllm.stages.pipeline import run_all
 from interllm.stages.resume import FINISHED, METRICS, finished_run, forget_finished, job_key, mark_finished
+from interllm.stages.shared_scenes import SharedScenes, scenes_key
 from interllm.stages.workers import usable_cores
 from pipeline._common import ROOT, setup_logging, write_folders
 from pipeline._hydra import CONF_DIR, to_config
@@ -54,13 +55,18 @@ def run(cfg: DictConfig) -> dict:
     run_dir = Path(hc.runtime.output_dir)
     bench = Path(typed.benchmark_dir) / typed.benchmark if typed.benchmark else None
     key = job_key(resolved, ROOT, bench)
-    with confine_writes(*write_folders(typed, run_dir)), exclusive_folder(run_dir):
+    shared = None
+    if typed.scenes_cache:  # the scenes of this setting, made once for every job of a re-make
+        store = Path(typed.scenes_cache) if Path(typed.scenes_cache).is_absolute() else ROOT / typed.scenes_cache
+        shared = SharedScenes(store, scenes_key(resolved, ROOT, bench))
+    folders = write_folders(typed, run_dir) + ((shared.entry.parent,) if shared else ())
+    with confine_writes(*folders), exclusive_folder(run_dir):
         if typed.resume and finished_run(run_dir, key):
             print(f"{run_dir}: already made with this config, code and benchmark; skipped "
                   f"(resume=false, or delete its {FINISHED}, to make it again)", file=sys.stderr)
             return read_json(run_dir / METRICS)
         forget_finished(run_dir)  # a run that fails from here on leaves no record of an earlier one
-        metrics = run_all(typed, out, resolved_config=resolved)
+        metrics = run_all(typed, out, resolved_config=resolved, shared_scenes=shared)
         mark_finished(run_dir, key)
         return metrics
 

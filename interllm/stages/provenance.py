@@ -74,7 +74,7 @@ def provenance(cfg: ExperimentConfig, resolved_config: dict | None = None, *, re
 
 # Settings that choose how a run is executed, not what it computes (tests/test_missions_parallel.py
 # and tests/test_llm_embedded.py check that results do not depend on them).
-EXECUTION_SETTINGS = ("jobs", "llm.n_threads")
+EXECUTION_SETTINGS = ("jobs", "llm.n_threads", "scenes_cache")
 
 
 def for_run_log(prov: dict) -> dict:
