@@ -120,8 +120,8 @@ mechanism: install
 # Every committed result re-made by one command, each compared with its committed version: the
 # default experiment, the sweeps and the mechanism runs (about 1.5 h on 2 cores, committed cache).
 # Interrupted, it resumes job by job: DVC skips the default run's finished stages, and every sweep
-# or mechanism job already finished with the same config, code and benchmark is skipped
-# (interllm/stages/resume.py); the jobs of one scene setting share its scenes, made once
+# or mechanism job already finished with the same config, code and benchmark is skipped, or restored
+# from its committed copy on a fresh clone (interllm/stages/resume.py); the jobs of one scene setting share its scenes, made once
 # (scenes_cache, interllm/stages/shared_scenes.py). FRESH=1 discards the finished jobs first.
 results: repro sweeps mechanism
 

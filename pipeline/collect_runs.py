@@ -1,8 +1,9 @@
 """Copy what a multirun's jobs measured into a committed folder: for every job folder under SRC that
 holds ``data/metrics/metrics.json``, its metrics (metrics.json and the per-mission and per-command
-tables the mechanism comparison pairs) and its Markdown report with its figures go to
-DST/<job folder name>/. Earlier copies of
-the same jobs are replaced whole (written beside, then renamed).
+tables the mechanism comparison pairs), its Markdown report with its figures, and its
+``finished.json`` (what lets a re-make elsewhere restore it: ``interllm/stages/resume.py``) go to
+DST/<job folder name>/. Earlier copies of the same jobs are replaced whole (written beside, then
+renamed).
 
     python -m pipeline.collect_runs multirun/mechanism data/mechanism
 """
@@ -12,6 +13,8 @@ from __future__ import annotations
 import shutil
 import sys
 from pathlib import Path
+
+from interllm.stages.resume import FINISHED
 
 METRICS = ("metrics.json", "per_mission.csv", "per_command.csv")  # what the mechanism tables pair
 REPORT_SKIPS = ("report.html",)  # the Markdown report and its figures suffice; the HTML inlines them again
@@ -30,6 +33,8 @@ def collect(src: Path, dst: Path) -> list[Path]:
         for name in METRICS:
             shutil.copy2(job / "data" / "metrics" / name, tmp / "metrics" / name)
         shutil.copytree(job / "data" / "report", tmp / "report", ignore=shutil.ignore_patterns(*REPORT_SKIPS))
+        if (job / FINISHED).is_file():  # what lets a re-make elsewhere restore this job (stages/resume.py)
+            shutil.copy2(job / FINISHED, tmp / FINISHED)
         final = dst / job.name
         shutil.rmtree(final, ignore_errors=True)
         tmp.rename(final)

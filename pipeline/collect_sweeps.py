@@ -7,10 +7,11 @@ For every job folder under SRC (``<experiment>/<job>/``, a Hydra multirun) that 
 ``interllm report --sweeps`` reads to place the job on its axis) and the small metrics files the
 sweep sections read (``METRICS``) go to ``DST/<experiment>/<what the job overrides>/`` in the same
 layout, so ``interllm report --sweeps data/sweeps`` and ``interllm results diff --file
-data/sweeps/<experiment>/<job>/data/metrics/metrics.json`` work on the committed copy. Only the
-EXPERIMENTs named are collected (all under SRC when none is), so old local runs of another sweep
-never replace its committed copy. An experiment's earlier copy is replaced whole (written beside,
-then renamed).
+data/sweeps/<experiment>/<job>/data/metrics/metrics.json`` work on the committed copy; with them the
+job's ``finished.json``, so that a re-make on another machine restores the job instead of making it
+again (``interllm/stages/resume.py``). Only the EXPERIMENTs named are collected (all under SRC
+when none is), so old local runs of another sweep never replace its committed copy. An experiment's
+earlier copy is replaced whole (written beside, then renamed).
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ import sys
 from pathlib import Path
 
 import yaml
+
+from interllm.stages.resume import FINISHED
 
 # what the sweep sections read: metrics.json (planners, comparisons, answers), per_mission.csv
 # (paired differences), per_command.csv (learning curves), semantic_*.csv (Table II per σ)
@@ -68,6 +71,8 @@ def collect_experiment(jobs: list[Path], dst: Path) -> list[Path]:
             shutil.copy2(job / ".hydra" / f, tmp / name / ".hydra" / f)
         for f in METRICS:
             shutil.copy2(job / "data" / "metrics" / f, tmp / name / "data" / "metrics" / f)
+        if (job / FINISHED).is_file():  # what lets a re-make elsewhere restore this job (stages/resume.py)
+            shutil.copy2(job / FINISHED, tmp / name / FINISHED)
     shutil.rmtree(dst, ignore_errors=True)
     tmp.rename(dst)
     return [dst / name for name in named]

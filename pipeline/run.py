@@ -24,7 +24,16 @@ from interllm.config import check_api_key_env
 from interllm.errors import INTERRUPTED_EXIT, UserError, interrupted_message, output_error
 from interllm.io import confine_writes, exclusive_folder, read_json
 from interllm.stages.pipeline import run_all
-from interllm.stages.resume import FINISHED, METRICS, finished_run, forget_finished, job_key, mark_finished
+from interllm.stages.resume import (
+    COMMITTED_RUNS,
+    FINISHED,
+    METRICS,
+    finished_run,
+    forget_finished,
+    job_key,
+    mark_finished,
+    restore_committed,
+)
 from interllm.stages.shared_scenes import SharedScenes, scenes_key
 from interllm.stages.workers import usable_cores
 from pipeline._common import ROOT, setup_logging, write_folders
@@ -64,6 +73,10 @@ def run(cfg: DictConfig) -> dict:
         if typed.resume and finished_run(run_dir, key):
             print(f"{run_dir}: already made with this config, code and benchmark; skipped "
                   f"(resume=false, or delete its {FINISHED}, to make it again)", file=sys.stderr)
+            return read_json(run_dir / METRICS)
+        if typed.resume and (restored := restore_committed(run_dir, key, [ROOT / r for r in COMMITTED_RUNS])):
+            print(f"{run_dir}: restored from its committed copy {restored.relative_to(ROOT)}, made with this "
+                  f"config, code and benchmark (resume=false to make it again)", file=sys.stderr)
             return read_json(run_dir / METRICS)
         forget_finished(run_dir)  # a run that fails from here on leaves no record of an earlier one
         metrics = run_all(typed, out, resolved_config=resolved, shared_scenes=shared)

@@ -3,6 +3,7 @@ again; a job whose config, code or outputs changed, or that never finished, is."
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -82,3 +83,31 @@ def test_the_key_follows_config_and_code_but_not_execution_settings(tmp_path):
 def test_a_broken_record_means_not_finished(tmp_path, record):
     (tmp_path / resume.FINISHED).write_text(record)
     assert not resume.finished_run(tmp_path, "k")
+
+
+@pytest.mark.parametrize("collector", ["sweeps", "runs"])
+def test_a_job_committed_elsewhere_is_restored_not_made_again(tmp_path, collector):
+    """A job finished in one run folder, collected as the Makefile commits it, is restored into a
+    fresh run folder (another machine's) with the same key: the same metrics, recorded as finished."""
+    from pipeline import collect_runs, collect_sweeps
+
+    made, cache = tmp_path / "multirun" / "exp" / "0", tmp_path / "cache"
+    assert _run(made, cache).returncode == 0
+    key = json.loads((made / resume.FINISHED).read_text())["key"]
+    committed = tmp_path / "committed"
+    if collector == "sweeps":
+        (copy_dir,) = collect_sweeps.collect(tmp_path / "multirun", committed)
+    else:
+        (copy_dir,) = collect_runs.collect(made.parent, committed)
+    assert (copy_dir / resume.FINISHED).is_file()
+
+    fresh = tmp_path / "elsewhere" / "0"
+    assert resume.restore_committed(fresh, key, [committed]) == copy_dir
+    assert (fresh / resume.METRICS).read_bytes() == (made / resume.METRICS).read_bytes()
+    assert resume.finished_run(fresh, key)
+    assert resume.restore_committed(tmp_path / "other", "another key", [committed]) is None
+    assert not (tmp_path / "other").exists()  # nothing written when there is no copy
+
+    copied = next(copy_dir.rglob("metrics.json"))
+    copied.write_text(copied.read_text() + " ")  # a committed copy edited since: not the job that finished
+    assert resume.committed_copy(key, [committed]) is None

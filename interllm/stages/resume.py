@@ -14,6 +14,11 @@ So a re-make interrupted after some jobs re-runs only the jobs without a matchin
 config, code or benchmark changed since it finished, or whose metrics.json is gone or edited, is
 made again. The LLM answers are not part of the key: the answer cache is keyed by prompt and model,
 and a run that finds an answer missing asks the model for it (the same answer, ``llm.seed``).
+
+Across machines and sessions: ``pipeline.collect_sweeps`` and ``pipeline.collect_runs`` copy each
+job's ``finished.json`` into its committed copy (``COMMITTED_RUNS``). A job with no finished record
+in its run folder whose key matches a committed copy is restored from that copy (its metrics and
+report) instead of being made again; so a re-make committed part by part resumes on a fresh clone.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import shutil
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Optional
@@ -31,6 +37,8 @@ from interllm.stages.provenance import EXECUTION_SETTINGS
 FINISHED = "finished.json"  # in a run folder: written last by a run that ended
 METRICS = Path("data") / "metrics" / "metrics.json"  # a run folder's metrics, relative to it
 CODE_GLOBS = (("interllm", "*.py"), ("pipeline", "*.py"), ("conf", "*.yaml"))
+# where the collectors put finished jobs' committed copies, relative to the repository
+COMMITTED_RUNS = (Path("data") / "sweeps", Path("data") / "mechanism")
 
 
 def _without_execution_settings(config: Mapping) -> dict:
@@ -99,3 +107,41 @@ def forget_finished(run_dir: Path) -> None:
     """Remove ``run_dir``'s record before a run starts writing into it: a run that then fails part
     way leaves outputs of two runs, which must not pass for the earlier finished one."""
     (run_dir / FINISHED).unlink(missing_ok=True)
+
+
+def _committed_layout(copy_dir: Path) -> dict[Path, Path]:
+    """{folder of the committed copy: the run-folder path it came from} for the two layouts the
+    collectors write: a sweep job's ``data/`` (collect_sweeps), a run's ``metrics/`` and ``report/``
+    (collect_runs)."""
+    if (copy_dir / METRICS).is_file():
+        return {copy_dir / "data": Path("data")}
+    return {copy_dir / "metrics": METRICS.parent, copy_dir / "report": Path("data") / "report"}
+
+
+def committed_copy(key: str, roots: Iterable[Path]) -> Optional[Path]:
+    """The committed copy (a folder under one of ``roots``) of a finished job with key ``key`` whose
+    metrics.json is the one that job wrote; None when there is none."""
+    for root in roots:
+        for record in sorted(root.rglob(FINISHED)) if root.is_dir() else ():
+            copy_dir = record.parent
+            metrics = copy_dir / METRICS if (copy_dir / METRICS).is_file() else copy_dir / "metrics" / METRICS.name
+            try:
+                d = json.loads(record.read_text())
+                if d.get("key") == key and d.get("metrics_sha256") == _sha256(metrics):
+                    return copy_dir
+            except (OSError, ValueError, AttributeError):
+                continue
+    return None
+
+
+def restore_committed(run_dir: Path, key: str, roots: Iterable[Path]) -> Optional[Path]:
+    """Copy the committed copy of the finished job ``key`` (``committed_copy``) into ``run_dir`` and
+    record it as finished there; the copy restored, or None (nothing written) when there is none."""
+    copy_dir = committed_copy(key, roots)
+    if copy_dir is None:
+        return None
+    for src, rel in _committed_layout(copy_dir).items():
+        if src.is_dir():
+            shutil.copytree(src, run_dir / rel, dirs_exist_ok=True)
+    mark_finished(run_dir, key)
+    return copy_dir
