@@ -23,6 +23,7 @@ from pathlib import Path
 
 import yaml
 
+from interllm.stages.provenance import EXECUTION_SETTINGS
 from interllm.stages.resume import FINISHED
 
 # what the sweep sections read: metrics.json (planners, comparisons, answers), per_mission.csv
@@ -34,10 +35,17 @@ HYDRA = ("config.yaml", "overrides.yaml")
 UNSAFE = re.compile(r"[^A-Za-z0-9._,+=-]")  # anything else in an override value becomes '_'
 
 
+# overrides that choose how a job runs, not what it computes: not part of its name
+UNNAMED = ("experiment", "resume", *EXECUTION_SETTINGS)
+
+
 def job_name(overrides: list[str]) -> str:
-    """A job's folder name: its overrides other than the experiment, ``key_value`` joined by ',';
-    one folder name whatever the values hold ('/' and other separators become '_')."""
-    kept = [o.replace("=", "_", 1) for o in overrides if not o.startswith(("experiment=", "hydra."))]
+    """A job's folder name: its overrides other than the experiment, the hydra settings and those
+    that choose how it runs (``UNNAMED``: ``make sweeps`` passes resume and scenes_cache),
+    ``key_value`` joined by ','; one folder name whatever the values hold ('/' and other separators
+    become '_')."""
+    kept = [o.replace("=", "_", 1) for o in overrides
+            if not o.startswith("hydra.") and o.split("=", 1)[0].lstrip("+~") not in UNNAMED]
     name = UNSAFE.sub("_", ",".join(kept)) or "default"
     return "_" + name if name.startswith(".") else name
 

@@ -110,6 +110,9 @@ def test_a_job_is_named_by_what_it_overrides_in_one_folder_name():
     assert job_name(["experiment=encoding_comparison", "llm.oracle_costs=numeric", "planner.inter_llm.cost_encoding=paper"]) \
         == "llm.oracle_costs_numeric,planner.inter_llm.cost_encoding_paper"
     assert job_name(["experiment=quick"]) == "default"
+    # what make sweeps adds to choose how a job runs is not part of its name
+    assert job_name(["llm.oracle_error=0.1", "experiment=oracle_sweep", "resume=True",
+                     "scenes_cache=multirun/scenes_cache", "jobs=1"]) == "llm.oracle_error_0.1"
     hostile = job_name(["llm.model=a/../../../etc/x", "scene.import_path=/tmp/h"])
     assert "/" not in hostile and hostile == "llm.model_a_.._.._.._etc_x,scene.import_path__tmp_h"
     assert not job_name(["..=x"]).startswith(".")
