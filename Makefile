@@ -91,14 +91,20 @@ repro: install
 # `make test-ci`: the fast tier plus the integration tests (quick experiments through DVC, the
 # committed results reproduced from the cache, real LLM servers): what .ci/run runs.
 # `make test-all`: every test, the `slow` ones too (each repeats a path a shorter test covers).
+# The tests run on every core (pytest-xdist, TEST_WORKERS=1 for one process); each file's tests stay
+# on one worker (--dist loadfile), so a module's fixtures (a started server, a generated house) are
+# built once.
+TEST_WORKERS ?= $(JOBS)
+PYTEST = $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
+
 test: install
-	$(PY) -m pytest -m "not slow and not integration"
+	$(PYTEST) -m "not slow and not integration"
 
 test-ci: install
-	$(PY) -m pytest -m "not slow"
+	$(PYTEST) -m "not slow" --durations=15
 
 test-all: install
-	$(PY) -m pytest -m ""
+	$(PYTEST) -m ""
 
 lint: install
 	$(VENV)/bin/ruff check .
