@@ -477,19 +477,49 @@ def test_14_ctrl_c_in_a_stage_is_one_line_and_status_130(tmp_path):
     assert "Traceback" not in err
 
 
-def test_14_a_mission_worker_leaves_ctrl_c_to_its_parent():
+WORKER_INIT_THEN_CTRL_C = """
+import os, signal, sys, time
+from interllm.stages import missions, scenes
+from interllm.stages.workers import leave_ctrl_c_to_parent
+{init}
+os.kill(os.getpid(), signal.SIGINT)
+time.sleep(2)
+print("went on")
+"""
+
+
+@pytest.mark.parametrize("init", ["leave_ctrl_c_to_parent()", "scenes._init_worker(os.getppid())"])
+@pytest.mark.parametrize("parent_ignores", [False, True])
+def test_14_a_worker_leaves_ctrl_c_to_its_parent_and_keeps_an_ignored_one(init, parent_ignores):
+    """A worker initializer makes Ctrl-C exit 130 with no traceback (the parent says what stopped);
+    when the stage was started with SIGINT ignored (``nohup ... &``), the worker ignores it too and
+    goes on with its parent."""
+    code = WORKER_INIT_THEN_CTRL_C.format(init=init)
+    preexec = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if parent_ignores else None
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60,
+                       preexec_fn=preexec)
+    assert "Traceback" not in r.stderr, r.stderr
+    if parent_ignores:
+        assert r.returncode == 0 and "went on" in r.stdout, (r.returncode, r.stderr)
+    else:
+        assert r.returncode == 130 and "went on" not in r.stdout, (r.returncode, r.stderr)
+
+
+def test_14_the_mission_workers_set_up_ctrl_c_with_the_shared_initializer(monkeypatch):
+    """``missions._init_worker`` calls ``leave_ctrl_c_to_parent`` (its other set-up needs a config
+    and a call-log queue, so it is checked here in process)."""
     from interllm.stages import missions
 
-    code = textwrap.dedent("""
-        import os, signal, time
-        from interllm.stages import missions
-        signal.signal(signal.SIGINT, missions._exit_quietly)
-        os.kill(os.getpid(), signal.SIGINT)
-        time.sleep(5)
-    """)
-    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60)
-    assert r.returncode == 130 and "Traceback" not in r.stderr
-    assert "signal.signal(signal.SIGINT, _exit_quietly)" in Path(missions.__file__).read_text()
+    called = []
+    monkeypatch.setattr(missions, "die_with_parent", lambda parent: None)
+    monkeypatch.setattr(missions, "leave_ctrl_c_to_parent", lambda: called.append(True))
+    monkeypatch.setattr(missions, "MissionWorker", lambda *a: None)
+
+    class _Ids:
+        def get(self, timeout):
+            return "log"
+    missions._init_worker(0, _Ids(), None, None, None, None, {})
+    assert called == [True]
 
 
 # -- 15. a FIFO named .mcap ---------------------------------------------------------------------------------

@@ -13,7 +13,6 @@ import concurrent.futures as cf
 import dataclasses
 import multiprocessing
 import os
-import signal
 import traceback
 from pathlib import Path
 
@@ -36,7 +35,7 @@ from interllm.sim.world import World
 from interllm.stages.inputs import PROBE_FILE, load_grids, load_scene_and_missions, scene_ids, stage_client
 from interllm.stages.provenance import for_run_log, provenance
 from interllm.stages.validate import check_registered, import_planner_modules
-from interllm.stages.workers import Job, exit_quietly, failed_message, merge_call_logs, usable_cores
+from interllm.stages.workers import Job, failed_message, leave_ctrl_c_to_parent, merge_call_logs, usable_cores
 
 
 class MissionWorker:
@@ -107,8 +106,6 @@ def command_results_logger(recorder):
 _WORKER: MissionWorker | None = None  # the worker process's state (see _init_worker)
 
 
-_exit_quietly = exit_quietly  # a worker's SIGINT handler (interllm.stages.workers)
-
 
 def _init_worker(parent: int, ids, cfg, scenes_dir, candidates_dir, out_dir, prov) -> None:
     """Worker initializer: die with the parent (a killed stage leaves no worker behind), leave a
@@ -116,7 +113,7 @@ def _init_worker(parent: int, ids, cfg, scenes_dir, candidates_dir, out_dir, pro
     take a call-log file of its own, then set up the worker state."""
     global _WORKER
     die_with_parent(parent)
-    signal.signal(signal.SIGINT, _exit_quietly)
+    leave_ctrl_c_to_parent()
     _WORKER = MissionWorker(cfg, scenes_dir, candidates_dir, out_dir, prov, ids.get(timeout=60))
 
 

@@ -10,7 +10,6 @@ import dataclasses
 import logging
 import multiprocessing
 import os
-import signal
 import traceback
 from pathlib import Path
 from typing import Optional
@@ -39,7 +38,7 @@ from interllm.scene.validate import SceneValidationError, load_scene_file
 from interllm.sim.build import build_world_spec
 from interllm.sim.measurements import MEASUREMENTS_FILE
 from interllm.stages.feasibility import SceneFeasibility, feasibility_record, measure_scene
-from interllm.stages.workers import exit_quietly, usable_cores
+from interllm.stages.workers import leave_ctrl_c_to_parent, usable_cores
 
 log = logging.getLogger(__name__)
 
@@ -252,10 +251,10 @@ def _write_in_workers(cfg: ExperimentConfig, n: int, out_dir: Path, n_workers: i
 
 
 def _init_worker(parent: int) -> None:
-    """Worker initializer: die with the parent, leave a Ctrl-C to it (``workers.exit_quietly``) and
+    """Worker initializer: die with the parent, leave a Ctrl-C to it (``workers.leave_ctrl_c_to_parent``) and
     log warnings as the stage's own process does."""
     die_with_parent(parent)
-    signal.signal(signal.SIGINT, exit_quietly)
+    leave_ctrl_c_to_parent()
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 from pathlib import Path
 
 from interllm.errors import INTERRUPTED_EXIT
@@ -26,6 +27,14 @@ def exit_quietly(signum: int, frame) -> None:
     parent says what it stopped; a worker's traceback would only repeat it). Files a worker was
     writing stay partial or absent (every output is written atomically); the finished ones are kept."""
     os._exit(INTERRUPTED_EXIT)
+
+
+def leave_ctrl_c_to_parent() -> None:
+    """A worker initializer's SIGINT set-up: ``exit_quietly`` on Ctrl-C, unless the worker's parent
+    ignores SIGINT (a stage started with ``nohup ... &``): then the worker ignores it as well, so a
+    Ctrl-C to the process group does not stop the workers of a stage that goes on."""
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, exit_quietly)
 
 
 def failed_message(job: Job, e: BaseException, out_dir: Path) -> str:
