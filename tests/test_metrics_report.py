@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -186,3 +188,23 @@ def test_estimate_variants_are_paired_against_this_run(experiment):
     assert "| prior (this run) |" in section and "| prior |" not in section
     assert "weighted_mean" not in section
     assert "none can be told better than prior: it stays the default" in section
+
+
+def test_the_report_refuses_to_pair_a_sweep_job_of_another_benchmark(experiment):
+    """Sweep sections pair runs by scene and mission id, which benchmark versions share: a job of
+    another benchmark is named with its benchmark and the fix, before anything is written."""
+    from interllm.errors import UserError
+    from interllm.report.build import build_report
+
+    root, cfg = experiment
+    mdir, odd = root / "m_bench", root / "m_bench_odd"
+    for d, name in ((mdir, "paper-v3"), (odd, "paper-v2")):
+        write_metrics(root / "runs", root / "scenes", cfg, d)
+        metrics = json.loads((d / "metrics.json").read_text(encoding="utf-8"))
+        metrics["benchmark"] = {"name": name, "frozen_commit": "0" * 40, "frozen_robot": "manipulathor", "slots": 18,
+                                "commands_changed": 0, "slots_changed": 0, "pickups_changed": 0, "starts_moved": 0}
+        (d / "metrics.json").write_text(json.dumps(metrics), encoding="utf-8")
+    with pytest.raises(UserError, match=r"m_bench_odd \(paper-v2\).*make sweeps"):
+        build_report(mdir, root / "scenes", root / "runs", root / "rep_odd", cfg, m_results=[("M=3", odd)])
+    assert not (root / "rep_odd").exists()
+    build_report(mdir, root / "scenes", root / "runs", root / "rep_same", cfg, m_results=[("M=3", mdir)])

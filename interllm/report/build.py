@@ -70,6 +70,9 @@ def build_report(metrics_dir: str | os.PathLike, scenes_dir: str | os.PathLike, 
         raise MissingInputError(f"{mpath} is missing; run the 'aggregate' stage (interllm.stages.aggregate) "
                                 f"first or pass the folder holding metrics.json")
     metrics = read_json(mpath)
+    sweep_dirs = [r[-1] for r in (*temperature_results, *m_results, *estimate_results, *oracle_results,
+                                  *encoding_results)]
+    sweeps.check_one_benchmark(metrics, mpath, sweep_dirs)
     settings = metrics.get("settings", {})
     judge = str(settings.get("judge", settings.get("reference", "")))  # "reference": before metrics.judge
     with planner_info.shown(planner_info.PlannerTable.from_json(metrics.get("planners", {}), str(mpath))):

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Optional
 
 from interllm.core.seeding import bootstrap_seed
+from interllm.errors import UserError
 from interllm.io import read_json
 from interllm.metrics import capability, claims
 from interllm.metrics.compute import read_csv
@@ -40,6 +41,25 @@ def with_metrics(pairs: Sequence[tuple[str, str | os.PathLike]]) -> list[tuple[s
         if p.is_file():
             out.append((str(lab), Path(d), read_json(p)))
     return out
+
+
+def benchmark_name(metrics: Mapping) -> str:
+    """The frozen benchmark a run's metrics.json names ("" before benchmarks were recorded)."""
+    return str(metrics.get("benchmark", {}).get("name", ""))
+
+
+def check_one_benchmark(metrics: Mapping, source: str | os.PathLike, dirs: Sequence[str | os.PathLike]) -> None:
+    """Refuse sweep runs of another benchmark than the report's run (``source``'s metrics): the
+    sections pair runs by scene and mission id, which benchmark versions share (paper-v2 and
+    paper-v3 name their houses alike), so a mix would pair different missions."""
+    want = benchmark_name(metrics)
+    odd = [(str(d), benchmark_name(m)) for _, d, m in with_metrics([("", d) for d in dirs])
+           if benchmark_name(m) != want]
+    if odd:
+        listed = "; ".join(f"{d} ({name or 'no benchmark recorded'})" for d, name in odd)
+        raise UserError(f"report: {source} is a run of benchmark {want or '(none recorded)'!r}, but sweep run(s) "
+                        f"{listed} are not: the report pairs runs by scene and mission id, so every run must be of "
+                        f"the same benchmark. Re-make those runs (make sweeps) or leave them out of --sweeps.")
 
 
 def paired_reduction(base_dir: Path, other_dir: Path, planner: str, label: str) -> tuple[int, float, float, float]:
