@@ -120,9 +120,9 @@ class CountingSearch(assignment._MissionSearch):
         self.building += time.process_time() - t
         return out
 
-    def plans_of(self, node):
+    def expand(self, forbidden, plans):
         self.nodes += 1
-        return super().plans_of(node)
+        return super().expand(forbidden, plans)
 
 
 def timed_dp(start, slots, nav, limit: float) -> tuple[float, MissionPlan | None]:
@@ -151,13 +151,13 @@ def main(n_scenes: int, limit: float) -> None:
             part = slots[:k]
             t = time.process_time()
             search = CountingSearch(start, part, nav)
-            plans, costs = search.run()
+            found = search.run()
             took = time.process_time() - t
             dp_took, dp = timed_dp(start, part, nav, limit)
             total = 0.0
-            for c in reversed(costs):
-                total = c + total
-            same = "-" if dp is None else ("yes" if (dp.deliveries, dp.cost) == (sum(map(len, plans)), total) else
+            for plan in reversed(found or []):
+                total = plan[1] + total
+            same = "-" if dp is None or found is None else ("yes" if (dp.deliveries, dp.cost) == (sum(len(p[2]) for p in found), total) else
                                            f"NO: {dp.deliveries}, {dp.cost:.3f}")
             dp_text = f"> {limit:.0f} (stopped)" if dp is None else f"{dp_took:.2f}"
             print(f"{sid:<14} {k:>2} {sum(s.n for s in part):>5} {sum(len(s.options) for s in part):>7} | "

@@ -3,8 +3,10 @@ differ in objects, the oracle's relevant-only proposals and the cost encodings (
 numeric oracle)."""
 
 import itertools
+import json
 import logging
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -125,6 +127,9 @@ def test_the_mission_assignment_is_the_exhaustive_optimum_over_all_commands_at_o
         got = cheapest_mission("@s", [CommandSlots(n, ds) for n, ds, _ in commands], nav)
         want = _mission_brute("@s", commands)
         assert got.deliveries == want[0] and got.cost == pytest.approx(want[1])
+        by_milp = cheapest_mission("@s", [CommandSlots(n, ds) for n, ds, _ in commands], nav, max_nodes=0)
+        assert (by_milp.method, by_milp.bound, by_milp.deliveries) == ("milp", None, want[0])
+        assert by_milp.cost == pytest.approx(want[1])
         chosen = [d.obj for plan in got.plans for d in plan]
         assert len(chosen) == len(set(chosen)) == got.deliveries  # no object serves two commands
         sets = [{d.obj for d in ds} for _, ds, _ in commands]
@@ -147,10 +152,12 @@ def test_the_mission_assignment_is_exact_where_many_commands_compete_for_the_sam
                        for k, (o, src) in enumerate(pool) if rng.random() < 0.9)
             commands.append((int(rng.integers(1, 3)), ds, nav))
         search = _CountingSearch("@s", [CommandSlots(n, ds) for n, ds, _ in commands], nav)
-        plans, costs = search.run()
+        plans = search.run()
         want = _mission_brute("@s", commands)
-        assert sum(map(len, plans)) == want[0] and sum(costs) == pytest.approx(want[1])
+        assert sum(len(p[2]) for p in plans) == want[0] and sum(p[1] for p in plans) == pytest.approx(want[1])
         assert cheapest_mission("@s", [CommandSlots(n, ds) for n, ds, _ in commands], nav).cost == pytest.approx(want[1])
+        by_milp = cheapest_mission("@s", [CommandSlots(n, ds) for n, ds, _ in commands], nav, max_nodes=1)
+        assert by_milp.deliveries == want[0] and by_milp.cost == pytest.approx(want[1])
         deepest = max(deepest, search.nodes)
     assert deepest >= 10  # the search had to split many times, not only once
 
@@ -160,9 +167,9 @@ class _CountingSearch(_MissionSearch):
 
     nodes = 0
 
-    def plans_of(self, node):
+    def expand(self, forbidden, plans):
         self.nodes += 1
-        return super().plans_of(node)
+        return super().expand(forbidden, plans)
 
 
 def test_the_mission_assignment_searches_few_nodes_on_a_ten_command_mission_whose_commands_share_categories():
@@ -184,10 +191,34 @@ def test_the_mission_assignment_searches_few_nodes_on_a_ten_command_mission_whos
                                               for o, cat, src in objects if cat in cats and src not in targets
                                               for t in targets)))
     search = _CountingSearch("@s", commands, nav)
-    plans, _ = search.run()
-    chosen = [d.obj for plan in plans for d in plan]
+    plans = search.run()
+    chosen = [d.obj for plan in plans for d in plan[2]]
     assert len(chosen) == len(set(chosen)) == 30
     assert 1 < search.nodes <= 300
+
+
+def _captured_problem(k: int):
+    """The first k commands of the assignment the optimal reference solved first on mechanism-v2
+    medium_s0007 m000 (tests/golden), whose search outgrew 21 GB before its node budget."""
+    data = json.loads((Path(__file__).parent / "golden" / "mission_assignment_medium_s0007_m000.json").read_text())
+    table = {(a, b): v for a, b, v in data["nav"]}
+    commands = [CommandSlots(c["n"], tuple(Delivery(*d) for d in c["options"])) for c in data["commands"][:k]]
+    return data["start"], commands, lambda a, b: table[(a, b)]
+
+
+def test_a_mission_search_stops_at_its_node_budget_and_the_integer_programme_finds_the_same_optimum():
+    """Eight commands of a real mechanism mission that compete for bowls, cellphones and books: the
+    search closes this only after 5,039 nodes (cost 2281.3878, measured without a budget); with a
+    budget of 50 it stops after 50 nodes and the integer programme over the same plans returns a
+    mission plan of the same deliveries and cost, proved optimal."""
+    start, commands, nav = _captured_problem(8)
+    search = _CountingSearch(start, commands, nav, 50)
+    assert search.run() is None and search.nodes == 50
+    plan = cheapest_mission(start, commands, nav, max_nodes=50)
+    chosen = [d.obj for p in plan.plans for d in p]
+    assert len(chosen) == len(set(chosen)) == plan.deliveries == 24
+    assert (plan.method, plan.bound, plan.gap()) == ("milp", None, 0.0)
+    assert plan.cost == pytest.approx(2281.387806099999, rel=1e-9)
 
 
 def test_a_mission_plan_leaves_an_earlier_command_the_object_a_later_command_cannot_do_without():

@@ -6,7 +6,9 @@ simulator's scratch measurement of pickups and places (``WorldView.measure_manip
 N_l-trial measurement Table II judges against). At each command it assigns distinct reachable
 instances to the slots of this command and of every later one at once
 (``planning.assignment.cheapest_mission``: most deliveries over the mission first, then the least
-summed cost). It executes this command's part with the rule every planner shares. So a command
+summed cost; exact, by a search that hands over to an integer programme where it would grow
+too large, and a command's record notes that handover). It executes this command's part with the
+rule every planner shares. So a command
 does not take the book a later command cannot do without. Navigation is costed by the presumed path
 on the robot's map, c_nav with no collision: length/base_speed + length. Collisions, and the
 replanning they cause, are what it ignores. After an execution failure it excludes the failed
@@ -68,6 +70,7 @@ class OptimalPlanner:
     def __init__(self) -> None:
         self.failed: set[tuple[str, str]] = set()  # (object, furniture) whose pickup or place failed
         self._nav: Optional[PresumedNav] = None  # path costs on the current map, across searches
+        self.search_notes: list[str] = []  # what the searches of the current command noted
 
     def run_command(self, command: Command, ctx: PlannerContext) -> CommandResult:
         ctx.start_command()
@@ -77,7 +80,7 @@ class OptimalPlanner:
         result.selected_plan = plan
         if not plan:
             result.notes.append("optimal: no deliverable instance of the command's categories")
-            return finish(ctx, result)
+            return finish(ctx, self.noted(result))
         replans = [0]
 
         def replanner(res: Optional[ActionResult], text: str, action: Action, delivered: list[str]) -> Optional[Plan]:
@@ -90,7 +93,14 @@ class OptimalPlanner:
             return self.search(command, ctx)
 
         execute_plan(ctx, command, plan, result, replanner=replanner)
-        return finish(ctx, result)
+        return finish(ctx, self.noted(result))
+
+    def noted(self, result: CommandResult) -> CommandResult:
+        """``result`` with a note per search of this command that the integer programme closed, or
+        that stopped at a bound (``planning.assignment.MissionPlan``)."""
+        result.notes += self.search_notes
+        self.search_notes = []
+        return result
 
     def search(self, command: Command, ctx: PlannerContext) -> Plan:
         """This command's part of the cheapest assignment of the rest of the mission, from the
@@ -109,6 +119,11 @@ class OptimalPlanner:
         for goal in sorted(targets):
             nav.toward(goal, sources)
         mission = cheapest_mission(start, slots, nav)
+        if mission.method != "search":
+            self.search_notes.append(
+                f"optimal: the mission search ({len(slots)} commands) reached its node budget; the integer programme "
+                + ("proved its plan the best" if mission.bound is None else
+                   f"stopped at a lower bound {mission.bound}: the plan may be up to {mission.gap():.2%} dearer"))
         return self.plan_of(ctx, list(mission.plans[0]))
 
     def options(self, command: Command, ctx: PlannerContext, nav: PresumedNav, budget: int) -> list[Delivery]:

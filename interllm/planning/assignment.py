@@ -19,7 +19,14 @@ It is exact over the costs it is given:
   one ended.
 - With it, a best-first search over which objects are forbidden to which commands
   (conflict-based search, as in multi-agent path finding; ``_MissionSearch``) solves that
-  programme per node and splits a node on the first object two commands' plans share.
+  programme per node, for no more deliveries than a matching of slots to objects allows, and
+  splits a node on the first object two commands' plans share.
+
+The search is exact but can grow exponentially: on medium_s0007's first mission of mechanism-v2
+(10 commands competing for bowls, cellphones and books, within a few cost units of each other) it
+had not closed after 16,000 nodes on 9 of the commands, and an earlier version that kept a memo per
+node outgrew 21 GB. It expands at most ``MAX_NODES`` nodes (the memory per node: its forbidden
+objects and its plan); then the same plans go to an integer programme (``mission_milp``).
 
 An earlier exact version kept, per command, the set of objects taken in its state; on 10-command
 missions whose commands share categories that state space grew past 60 CPU seconds from five
@@ -35,9 +42,13 @@ import heapq
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Optional
+
+from interllm.planning.mission_milp import solve_mission
 
 NavCost = Callable[[str, str], float]  # (from location, to furniture) -> cost; math.inf: no path
+MAX_NODES = 500  # nodes the mission search expands at most (``_MissionSearch.run``), then ``mission_milp``
 
 
 @dataclass(frozen=True)
@@ -62,24 +73,47 @@ class MissionPlan:
     plans: tuple[tuple[Delivery, ...], ...]  # per command, its ordered deliveries
     deliveries: int
     cost: float  # [cost units] summed over the mission
+    missed: int = 0  # slots asked for and not delivered
+    bound: Optional[tuple[int, float]] = None  # None: the best mission plan; else neither method closed the
+    # gap, and this is a lower bound (slots missed, cost [cost units]) on the best one
+    method: str = "search"  # what found it: the conflict-based search, or "milp" once its budget ran out
+
+    def gap(self) -> float:
+        """How far this plan's cost lies above the lower bound, as a share of the bound: 0 for the
+        best plan, math.inf when it misses more slots than the bound does."""
+        if self.bound is None:
+            return 0.0
+        if self.missed > self.bound[0]:
+            return math.inf
+        return self.cost / self.bound[1] - 1.0 if self.bound[1] > 0 else 0.0
 
 
 Score = tuple[int, float]  # (slots missed, cost [cost units]): the less, the better, in that order
 Plan = tuple[frozenset[str], float, tuple[Delivery, ...]]  # one command's (objects, cost, deliveries)
 
 
-def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost) -> MissionPlan:
+def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost,
+                     max_nodes: int = MAX_NODES) -> MissionPlan:
     """The plan of every command (module docstring): deliveries first, then the least cost.
 
     start: the robot's location key for ``nav`` (e.g. "@robot" or a furniture id).
     nav(a, b): navigation cost from location a to furniture b (math.inf when there is no path).
+    max_nodes: the search's node budget; a search that reaches it returns a mission plan with a
+    lower bound on the best one (``MissionPlan.bound``, ``gap``) instead of the best.
     """
-    plans, costs = _MissionSearch(start, commands, nav).run()
+    search = _MissionSearch(start, commands, nav, max_nodes)
+    found, bound, method = search.run(), None, "search"
+    if found is None:  # the search's budget ran out: the integer programme over the same plans
+        solved = solve_mission(start, len(commands), search.ranked, search.max_deliveries({}))
+        found, method = solved.plans, "milp"
+        n_done = sum(len(p[2]) for p in found)
+        bound = None if solved.optimal else (sum(c.n for c in commands) - n_done, solved.lower_bound)
     total = 0.0
-    for cost in reversed(costs):  # summed from the last command: cost + rest
-        total = cost + total
-    n_done = sum(len(p) for p in plans)
-    return MissionPlan(plans, n_done, total if n_done else 0.0)
+    for plan in reversed(found):  # summed from the last command: cost + rest
+        total = plan[1] + total
+    n_done = sum(len(p[2]) for p in found)
+    return MissionPlan(tuple(p[2] for p in found), n_done, total if n_done else 0.0,
+                       sum(c.n for c in commands) - n_done, bound, method)
 
 
 def cheapest_assignment(start: str, deliveries: Sequence[Delivery], n: int, nav: NavCost) -> tuple[list[Delivery], float]:
@@ -93,102 +127,143 @@ class _MissionSearch:
     """Best-first search over object restrictions for ``cheapest_mission`` (conflict-based search,
     as in multi-agent path finding). A node forbids some objects to some commands. Its relaxed
     plan is the best combination of plans, each command starting where the previous one ended,
-    that avoids the node's forbidden objects but may take an object another command takes:
-    dynamic programming over (command, location), exact and cheap. A relaxed plan in which no object serves
-    two commands is a mission plan. Otherwise an object o serves several commands, and every
-    mission plan leaves o to at most one of them: the node has a child per such command, in which
-    o may serve that command and is forbidden to the others. Nodes are expanded in order of their
-    relaxed (slots missed, cost), which never falls from a node to its children, so the first node
-    whose relaxed plan is a mission plan is the best mission plan. Where objects are scarce (more
-    commands want them than there are), the relaxed plan misses fewer slots than any mission plan
-    and the search examines many nodes: a few hundred, up to about 1,000, for five commands
-    competing for four objects (tests); the first search of a mechanism mission, 9 to 14."""
+    that avoids the node's forbidden objects but may take an object another command takes, among
+    those with at most as many deliveries as a mission plan of the node can have:
 
-    def __init__(self, start: str, commands: Sequence[CommandSlots], nav: NavCost) -> None:
-        self.start, self.commands, self.nav = start, commands, nav
+    - that most, ``max_deliveries``, is a bipartite matching of slots to allowed objects (no
+      object in two commands; costs aside), exact and cheap;
+    - the best combination with exactly d deliveries is a dynamic programme over (command,
+      location), for every d at once (``best_by_deliveries``).
+
+    A relaxed plan in which no object serves two commands is a mission plan. Otherwise an object o
+    serves several commands, and every mission plan leaves o to at most one of them: the node has a
+    child per such command, in which o may serve that command and is forbidden to the others.
+    Nodes are expanded in order of their relaxed (slots missed, cost), which never falls from a
+    node to its children (their plans are a subset, their matching no larger), so the first node
+    whose relaxed plan is a mission plan is the best mission plan.
+
+    Without the matching's cap, where objects are scarce (more commands want them than there
+    are) the relaxed plan missed fewer slots than any mission plan, and the search had to examine
+    every way of sharing the scarce objects before it could miss one slot more: on one
+    10-command mechanism mission that outgrew 21 GB of memory. The heap holds a node's forbidden
+    objects only; its relaxed plan is recomputed when it is expanded (memory per node: the
+    objects it forbids)."""
+
+    def __init__(self, start: str, commands: Sequence[CommandSlots], nav: NavCost, max_nodes: int = MAX_NODES) -> None:
+        self.start, self.commands, self.nav, self.max_nodes = start, commands, nav, max_nodes
         self.by_obj = [_options_by_object(c.options) for c in commands]
-        self._ranked: dict[tuple[int, str], list[tuple[str, list[tuple[Score, Plan]]]]] = {}
+        self._ranked: dict[tuple[int, str], list[tuple[str, list[list[Plan]]]]] = {}
 
-    def ranked(self, i: int, loc: str) -> list[tuple[str, list[tuple[Score, Plan]]]]:
-        """Command i's plans from ``loc`` (``_command_plans``) grouped by where they end, each group
-        best first by (slots missed, cost)."""
+    def ranked(self, i: int, loc: str) -> list[tuple[str, list[list[Plan]]]]:
+        """Command i's plans from ``loc`` (``_command_plans``) grouped by where they end, and in a
+        group by their number of deliveries (index), each list cheapest first."""
         if (i, loc) not in self._ranked:
-            n, per_end = self.commands[i].n, {}
-            for plan in _command_plans(loc, self.by_obj[i], n, self.nav):
+            per_end: dict[str, list[list[Plan]]] = {}
+            for plan in _command_plans(loc, self.by_obj[i], self.commands[i].n, self.nav):
                 end = plan[2][-1].target if plan[2] else loc
-                per_end.setdefault(end, []).append(((n - len(plan[2]), plan[1]), plan))
-            for group in per_end.values():
-                group.sort(key=lambda entry: entry[0])  # stable: equal scores keep the search's order
+                by_size = per_end.setdefault(end, [[] for _ in range(self.commands[i].n + 1)])
+                by_size[len(plan[2])].append(plan)
+            for by_size in per_end.values():
+                for plans in by_size:
+                    plans.sort(key=lambda plan: plan[1])  # stable: equal costs keep the search's order
             self._ranked[(i, loc)] = list(per_end.items())
         return self._ranked[(i, loc)]
 
-    def relaxed(self, node: _Node, i: int, loc: str) -> Score:
-        """(slots missed, cost) of the best plans of commands i, i+1, ... from ``loc`` that avoid
-        the node's forbidden objects; the plan chosen for (i, loc) is kept in ``node.chosen``."""
+    def max_deliveries(self, forbidden: Forbidden, first: int = 0) -> int:
+        """The most deliveries commands ``first``, ... of a mission plan avoiding ``forbidden`` can
+        make: a maximum matching of command slots to distinct allowed objects (augmenting paths),
+        costs aside."""
+        allowed = [sorted(set(by_obj) - forbidden.get(i, frozenset())) if i >= first else []
+                   for i, by_obj in enumerate(self.by_obj)]
+        owner: dict[str, int] = {}
+
+        def augment(i: int, visited: set[str]) -> bool:  # one more object for command i
+            for o in allowed[i]:
+                if o not in visited:
+                    visited.add(o)
+                    if o not in owner or augment(owner[o], visited):
+                        owner[o] = i
+                        return True
+            return False
+
+        return sum(1 for i, c in enumerate(self.commands) if i >= first for _ in range(c.n) if augment(i, set()))
+
+    def best_by_deliveries(self, forbidden: Forbidden, memo: Memo, i: int, loc: str) -> list[Optional[tuple[float, Plan]]]:
+        """Indexed by d: the least cost [cost units] of plans of commands i, i+1, ... from ``loc``
+        with d deliveries in all that avoid ``forbidden``, with command i's plan (None: no such
+        plans). Kept in ``memo`` by (i, loc)."""
         if i == len(self.commands):
-            return 0, 0.0
-        if (i, loc) not in node.chosen:
-            forbidden = node.forbidden.get(i, frozenset())
-            best: tuple[Score, Plan] | None = None
-            for end, group in self.ranked(i, loc):
-                allowed = next((e for e in group if not e[1][0] & forbidden), None)  # the group ending at loc has the empty plan
-                if allowed is None:
-                    continue
-                score, plan = allowed
-                rest = self.relaxed(node, i + 1, end)
-                total = (score[0] + rest[0], score[1] + rest[1])
-                if best is None or total < best[0]:
-                    best = (total, plan)
-            node.chosen[(i, loc)] = best  # type: ignore[assignment]
-        return node.chosen[(i, loc)][0]
+            return [(0.0, (frozenset(), 0.0, ()))]
+        if (i, loc) not in memo:
+            out: list[Optional[tuple[float, Plan]]] = [None] * (sum(c.n for c in self.commands[i:]) + 1)
+            taboo = forbidden.get(i, frozenset())
+            for end, by_size in self.ranked(i, loc):
+                rest: Optional[list] = None
+                for size, plans in enumerate(by_size):
+                    plan = next((p for p in plans if not p[0] & taboo), None)
+                    if plan is None:
+                        continue
+                    rest = rest or self.best_by_deliveries(forbidden, memo, i + 1, end)
+                    for d_rest, entry in enumerate(rest):
+                        if entry is not None and (out[size + d_rest] is None or plan[1] + entry[0] < out[size + d_rest][0]):
+                            out[size + d_rest] = (plan[1] + entry[0], plan)
+            memo[(i, loc)] = out
+        return memo[(i, loc)]
 
-    def plans_of(self, node: _Node) -> list[Plan]:
-        """The node's relaxed plan, per command."""
-        out, loc = [], self.start
-        for i in range(len(self.commands)):
-            plan = node.chosen[(i, loc)][1]
-            out.append(plan)
-            loc = plan[2][-1].target if plan[2] else loc
-        return out
+    def relaxed(self, forbidden: Forbidden, first: int = 0, start: str | None = None) -> tuple[Score, list[Plan]]:
+        """The node's relaxed (slots missed, cost) and plan, per command, of commands ``first``, ...
+        from ``start`` (default: the mission's)."""
+        memo: Memo = {}
+        loc = self.start if start is None else start
+        at_start = self.best_by_deliveries(forbidden, memo, first, loc)
+        cap = self.max_deliveries(forbidden, first)
+        d = max(k for k in range(min(cap, len(at_start) - 1) + 1) if at_start[k] is not None)  # 0: the empty plans
+        score, plans = (sum(c.n for c in self.commands[first:]) - d, at_start[d][0]), []  # type: ignore[index]
+        for i in range(first, len(self.commands)):
+            plan = self.best_by_deliveries(forbidden, memo, i, loc)[d][1]  # type: ignore[index]
+            plans.append(plan)
+            d, loc = d - len(plan[2]), (plan[2][-1].target if plan[2] else loc)
+        return score, plans
 
-    def run(self) -> tuple[tuple[tuple[Delivery, ...], ...], list[float]]:
-        """(per command, its ordered deliveries), (per command, their cost) of the best mission plan."""
-        root = _Node({})
+    def run(self) -> list[Plan] | None:
+        """The best mission plan, per command; None when ``max_nodes`` nodes were expanded first."""
         order = itertools.count(1)  # ties: the node made first
-        heap: list[tuple[Score, int, _Node]] = [(self.relaxed(root, 0, self.start), 0, root)]
-        seen = {root.key()}
-        while heap:
-            node = heapq.heappop(heap)[2]
-            plans = self.plans_of(node)
-            conflict = _first_conflict(plans)
+        root = self.relaxed({})
+        heap: list[tuple[Score, int, Forbidden, list[Plan]]] = [(root[0], 0, {}, root[1])]
+        seen: set[frozenset[tuple[int, str]]] = {frozenset()}
+        for _ in range(self.max_nodes):
+            if not heap:
+                break
+            _, _, forbidden, plans = heapq.heappop(heap)
+            conflict = self.expand(forbidden, plans)
             if conflict is None:
-                return tuple(p[2] for p in plans), [p[1] for p in plans]
+                return plans
             obj, commands = conflict
             for keeper in commands:  # the object serves this one of them, or none
-                child = node.forbidding([i for i in commands if i != keeper], obj)
-                if child.key() not in seen:
-                    seen.add(child.key())
-                    heapq.heappush(heap, (self.relaxed(child, 0, self.start), next(order), child))
-        raise AssertionError("unreachable: forbidding every object leaves the empty plans, a mission plan")
+                child = _forbidding(forbidden, [i for i in commands if i != keeper], obj)
+                key = frozenset((i, o) for i, objs in child.items() for o in objs)
+                if key not in seen:
+                    seen.add(key)
+                    score, child_plans = self.relaxed(child)
+                    heapq.heappush(heap, (score, next(order), child, child_plans))
+        assert heap, "unreachable: forbidding every object leaves the empty plans, a mission plan"
+        return None
+
+    def expand(self, forbidden: Forbidden, plans: list[Plan]) -> tuple[str, list[int]] | None:
+        """The first conflict of a node taken off the heap (``_first_conflict``), None if none."""
+        return _first_conflict(plans)
 
 
-@dataclass
-class _Node:
-    """A node of ``_MissionSearch``: the objects forbidden per command, and its relaxed plan's
-    choices by (command, location)."""
+Forbidden = dict[int, frozenset[str]]  # per command, the objects it may not take
+Memo = dict[tuple[int, str], list[Optional[tuple[float, Plan]]]]
 
-    forbidden: dict[int, frozenset[str]]
-    chosen: dict[tuple[int, str], tuple[Score, Plan]] = field(default_factory=dict)
 
-    def key(self) -> frozenset[tuple[int, str]]:
-        return frozenset((i, o) for i, objs in self.forbidden.items() for o in objs)
-
-    def forbidding(self, commands: list[int], obj: str) -> _Node:
-        """A child that also forbids ``obj`` to ``commands``: the choices of later commands carry over."""
-        forbidden = dict(self.forbidden)
-        for i in commands:
-            forbidden[i] = forbidden.get(i, frozenset()) | {obj}
-        return _Node(forbidden, {k: v for k, v in self.chosen.items() if k[0] > max(commands)})
+def _forbidding(forbidden: Forbidden, commands: list[int], obj: str) -> Forbidden:
+    """A child node's restrictions: also ``obj`` to ``commands``."""
+    out = dict(forbidden)
+    for i in commands:
+        out[i] = out.get(i, frozenset()) | {obj}
+    return out
 
 
 def _first_conflict(plans: list[Plan]) -> tuple[str, list[int]] | None:
