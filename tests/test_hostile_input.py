@@ -495,7 +495,10 @@ def test_14_a_worker_leaves_ctrl_c_to_its_parent_and_keeps_an_ignored_one(init, 
     when the stage was started with SIGINT ignored (``nohup ... &``), the worker ignores it too and
     goes on with its parent."""
     code = WORKER_INIT_THEN_CTRL_C.format(init=init)
-    preexec = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if parent_ignores else None
+    disposition = signal.SIG_IGN if parent_ignores else signal.SIG_DFL  # set either way: pytest may run under nohup
+
+    def preexec():
+        signal.signal(signal.SIGINT, disposition)
     r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60,
                        preexec_fn=preexec)
     assert "Traceback" not in r.stderr, r.stderr

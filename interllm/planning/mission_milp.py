@@ -71,8 +71,8 @@ def solve_mission(start: str, n_commands: int, ranked, most_deliveries: int,
 
 def _solve_with_deliveries(start: str, n_commands: int, arcs: Sequence[Arc], d: int,
                            node_limit: int) -> MilpResult | None:
-    from scipy.optimize import Bounds, LinearConstraint, milp
-    from scipy.sparse import coo_matrix
+    from scipy.optimize import Bounds, LinearConstraint, milp  # lazy: only past the search budget
+    from scipy.sparse import coo_matrix  # lazy: as above
 
     rows, cols, vals, node_row = [], [], [], {}
 
