@@ -145,9 +145,9 @@ class _MissionSearch:
     Without the matching's cap, where objects are scarce (more commands want them than there
     are) the relaxed plan missed fewer slots than any mission plan, and the search had to examine
     every way of sharing the scarce objects before it could miss one slot more: on one
-    10-command mechanism mission that outgrew 21 GB of memory. The heap holds a node's forbidden
-    objects only; its relaxed plan is recomputed when it is expanded (memory per node: the
-    objects it forbids)."""
+    10-command mechanism mission that outgrew 21 GB of memory. A node on the heap holds its
+    forbidden objects and its relaxed plan (a reference per command to a plan of ``ranked``), no
+    memo. After ``max_nodes`` expansions the search gives up (``run`` returns None)."""
 
     def __init__(self, start: str, commands: Sequence[CommandSlots], nav: NavCost, max_nodes: int = MAX_NODES) -> None:
         self.start, self.commands, self.nav, self.max_nodes = start, commands, nav, max_nodes
@@ -169,12 +169,10 @@ class _MissionSearch:
             self._ranked[(i, loc)] = list(per_end.items())
         return self._ranked[(i, loc)]
 
-    def max_deliveries(self, forbidden: Forbidden, first: int = 0) -> int:
-        """The most deliveries commands ``first``, ... of a mission plan avoiding ``forbidden`` can
-        make: a maximum matching of command slots to distinct allowed objects (augmenting paths),
-        costs aside."""
-        allowed = [sorted(set(by_obj) - forbidden.get(i, frozenset())) if i >= first else []
-                   for i, by_obj in enumerate(self.by_obj)]
+    def max_deliveries(self, forbidden: Forbidden) -> int:
+        """The most deliveries a mission plan avoiding ``forbidden`` can make: a maximum matching
+        of command slots to distinct allowed objects (augmenting paths), costs aside."""
+        allowed = [sorted(set(by_obj) - forbidden.get(i, frozenset())) for i, by_obj in enumerate(self.by_obj)]
         owner: dict[str, int] = {}
 
         def augment(i: int, visited: set[str]) -> bool:  # one more object for command i
@@ -186,7 +184,7 @@ class _MissionSearch:
                         return True
             return False
 
-        return sum(1 for i, c in enumerate(self.commands) if i >= first for _ in range(c.n) if augment(i, set()))
+        return sum(1 for i, c in enumerate(self.commands) for _ in range(c.n) if augment(i, set()))
 
     def best_by_deliveries(self, forbidden: Forbidden, memo: Memo, i: int, loc: str) -> list[Optional[tuple[float, Plan]]]:
         """Indexed by d: the least cost [cost units] of plans of commands i, i+1, ... from ``loc``
@@ -210,16 +208,14 @@ class _MissionSearch:
             memo[(i, loc)] = out
         return memo[(i, loc)]
 
-    def relaxed(self, forbidden: Forbidden, first: int = 0, start: str | None = None) -> tuple[Score, list[Plan]]:
-        """The node's relaxed (slots missed, cost) and plan, per command, of commands ``first``, ...
-        from ``start`` (default: the mission's)."""
+    def relaxed(self, forbidden: Forbidden) -> tuple[Score, list[Plan]]:
+        """The node's relaxed (slots missed, cost) and plan, per command."""
         memo: Memo = {}
-        loc = self.start if start is None else start
-        at_start = self.best_by_deliveries(forbidden, memo, first, loc)
-        cap = self.max_deliveries(forbidden, first)
+        at_start = self.best_by_deliveries(forbidden, memo, 0, self.start)
+        cap = self.max_deliveries(forbidden)
         d = max(k for k in range(min(cap, len(at_start) - 1) + 1) if at_start[k] is not None)  # 0: the empty plans
-        score, plans = (sum(c.n for c in self.commands[first:]) - d, at_start[d][0]), []  # type: ignore[index]
-        for i in range(first, len(self.commands)):
+        score, plans, loc = (sum(c.n for c in self.commands) - d, at_start[d][0]), [], self.start  # type: ignore[index]
+        for i in range(len(self.commands)):
             plan = self.best_by_deliveries(forbidden, memo, i, loc)[d][1]  # type: ignore[index]
             plans.append(plan)
             d, loc = d - len(plan[2]), (plan[2][-1].target if plan[2] else loc)
