@@ -48,7 +48,8 @@ from typing import Optional
 from interllm.planning.mission_milp import solve_mission
 
 NavCost = Callable[[str, str], float]  # (from location, to furniture) -> cost; math.inf: no path
-MAX_NODES = 500  # nodes the mission search expands at most (``_MissionSearch.run``), then ``mission_milp``
+MAX_NODES = 10_000  # nodes the mission search expands at most (``_MissionSearch.run``), then ``mission_milp``:
+# about 2 ms a node on a 10-command mechanism mission, so a third of what HiGHS takes there (bench_mission_milp.py)
 
 
 @dataclass(frozen=True)
@@ -132,8 +133,8 @@ class _MissionSearch:
 
     - that most, ``max_deliveries``, is a bipartite matching of slots to allowed objects (no
       object in two commands; costs aside), exact and cheap;
-    - the best combination with exactly d deliveries is a dynamic programme over (command,
-      location), for every d at once (``best_by_deliveries``).
+    - the best combination that misses exactly m slots is a dynamic programme over (command,
+      location), for every m up to a limit at once (``best_by_missed``).
 
     A relaxed plan in which no object serves two commands is a mission plan. Otherwise an object o
     serves several commands, and every mission plan leaves o to at most one of them: the node has a
@@ -186,39 +187,49 @@ class _MissionSearch:
 
         return sum(1 for i, c in enumerate(self.commands) for _ in range(c.n) if augment(i, set()))
 
-    def best_by_deliveries(self, forbidden: Forbidden, memo: Memo, i: int, loc: str) -> list[Optional[tuple[float, Plan]]]:
-        """Indexed by d: the least cost [cost units] of plans of commands i, i+1, ... from ``loc``
-        with d deliveries in all that avoid ``forbidden``, with command i's plan (None: no such
-        plans). Kept in ``memo`` by (i, loc)."""
+    def best_by_missed(self, forbidden: Forbidden, memo: Memo, i: int, loc: str, limit: int) -> list[Optional[tuple[float, Plan]]]:
+        """Indexed by m = 0 .. limit: the least cost [cost units] of plans of commands i, i+1, ...
+        from ``loc`` that miss m of their slots in all and avoid ``forbidden``, with command i's plan
+        (None: no such plans). Kept in ``memo`` by (i, loc), for one ``limit``."""
         if i == len(self.commands):
-            return [(0.0, (frozenset(), 0.0, ()))]
+            return [(0.0, _EMPTY_PLAN)] + [None] * limit
         if (i, loc) not in memo:
-            out: list[Optional[tuple[float, Plan]]] = [None] * (sum(c.n for c in self.commands[i:]) + 1)
+            n, out = self.commands[i].n, [None] * (limit + 1)
             taboo = forbidden.get(i, frozenset())
             for end, by_size in self.ranked(i, loc):
                 rest: Optional[list] = None
-                for size, plans in enumerate(by_size):
-                    plan = next((p for p in plans if not p[0] & taboo), None)
+                for size in range(max(n - limit, 0), n + 1):  # this command misses n - size of its slots
+                    plan = next((p for p in by_size[size] if not p[0] & taboo), None)
                     if plan is None:
                         continue
-                    rest = rest or self.best_by_deliveries(forbidden, memo, i + 1, end)
-                    for d_rest, entry in enumerate(rest):
-                        if entry is not None and (out[size + d_rest] is None or plan[1] + entry[0] < out[size + d_rest][0]):
-                            out[size + d_rest] = (plan[1] + entry[0], plan)
+                    rest = rest or self.best_by_missed(forbidden, memo, i + 1, end, limit)
+                    for m_rest in range(limit - (n - size) + 1):
+                        entry, m = rest[m_rest], n - size + m_rest
+                        if entry is not None and (out[m] is None or plan[1] + entry[0] < out[m][0]):  # type: ignore[index]
+                            out[m] = (plan[1] + entry[0], plan)
             memo[(i, loc)] = out
         return memo[(i, loc)]
 
     def relaxed(self, forbidden: Forbidden) -> tuple[Score, list[Plan]]:
-        """The node's relaxed (slots missed, cost) and plan, per command."""
-        memo: Memo = {}
-        at_start = self.best_by_deliveries(forbidden, memo, 0, self.start)
-        cap = self.max_deliveries(forbidden)
-        d = max(k for k in range(min(cap, len(at_start) - 1) + 1) if at_start[k] is not None)  # 0: the empty plans
-        score, plans, loc = (sum(c.n for c in self.commands) - d, at_start[d][0]), [], self.start  # type: ignore[index]
-        for i in range(len(self.commands)):
-            plan = self.best_by_deliveries(forbidden, memo, i, loc)[d][1]  # type: ignore[index]
+        """The node's relaxed (slots missed, cost) and plan, per command: its least missed count
+        no smaller than the matching allows, then its least cost. The programme is solved for at
+        most ``limit`` missed slots, the matching's floor first (where nothing is scarce, 0: only
+        full plans), and again with a higher limit while nothing within it is feasible."""
+        total = sum(c.n for c in self.commands)
+        floor = total - self.max_deliveries(forbidden)  # no mission plan of the node misses fewer slots
+        limit = floor
+        while True:
+            memo: Memo = {}
+            at_start = self.best_by_missed(forbidden, memo, 0, self.start, limit)
+            m = next((k for k in range(floor, limit + 1) if at_start[k] is not None), None)
+            if m is not None:
+                break
+            limit = min(total, 2 * limit + 1)  # at ``total``, the empty plans are feasible
+        score, plans, loc = (m, at_start[m][0]), [], self.start  # type: ignore[index]
+        for i, command in enumerate(self.commands):
+            plan = self.best_by_missed(forbidden, memo, i, loc, limit)[m][1]  # type: ignore[index]
             plans.append(plan)
-            d, loc = d - len(plan[2]), (plan[2][-1].target if plan[2] else loc)
+            m, loc = m - (command.n - len(plan[2])), (plan[2][-1].target if plan[2] else loc)
         return score, plans
 
     def run(self) -> list[Plan] | None:
@@ -252,6 +263,7 @@ class _MissionSearch:
 
 Forbidden = dict[int, frozenset[str]]  # per command, the objects it may not take
 Memo = dict[tuple[int, str], list[Optional[tuple[float, Plan]]]]
+_EMPTY_PLAN: Plan = (frozenset(), 0.0, ())
 
 
 def _forbidding(forbidden: Forbidden, commands: list[int], obj: str) -> Forbidden:
