@@ -103,18 +103,18 @@ def cheapest_mission(start: str, commands: Sequence[CommandSlots], nav: NavCost,
     lower bound on the best one (``MissionPlan.bound``, ``gap``) instead of the best.
     """
     search = _MissionSearch(start, commands, nav, max_nodes)
-    found, bound, method = search.run(), None, "search"
+    found, solved = search.run(), None
     if found is None:  # the search's budget ran out: the integer programme over the same plans
         solved = solve_mission(start, len(commands), search.ranked, search.max_deliveries({}))
-        found, method = solved.plans, "milp"
-        n_done = sum(len(p[2]) for p in found)
-        bound = None if solved.optimal else (sum(c.n for c in commands) - n_done, solved.lower_bound)
+        found = solved.plans
     total = 0.0
     for plan in reversed(found):  # summed from the last command: cost + rest
         total = plan[1] + total
     n_done = sum(len(p[2]) for p in found)
-    return MissionPlan(tuple(p[2] for p in found), n_done, total if n_done else 0.0,
-                       sum(c.n for c in commands) - n_done, bound, method)
+    missed = sum(c.n for c in commands) - n_done
+    bound = None if solved is None or solved.optimal else (missed, solved.lower_bound)
+    return MissionPlan(tuple(p[2] for p in found), n_done, total if n_done else 0.0, missed, bound,
+                       "search" if solved is None else "milp")
 
 
 def cheapest_assignment(start: str, deliveries: Sequence[Delivery], n: int, nav: NavCost) -> tuple[list[Delivery], float]:

@@ -15,7 +15,7 @@ solved by HiGHS (``scipy.optimize.milp``), deterministic for a given problem: no
 node limit, relative gap 0. ``d`` is the most deliveries a mission plan can make: the matching
 bound first, one less while the programme is infeasible (a matched object can lie out of reach).
 On medium_s0007's first search of mechanism-v2 (10 commands, 92,706 arcs) HiGHS needs about
-80 CPU seconds, where the search's lower bound was still 11% short after 2,000 nodes
+70 CPU seconds, where the search had not closed after 20,000 nodes
 (``benchmarks/bench_mission_assignment.py``).
 """
 
