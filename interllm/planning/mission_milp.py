@@ -16,7 +16,7 @@ node limit, relative gap 0. ``d`` is the most deliveries a mission plan can make
 bound first, one less while the programme is infeasible (a matched object can lie out of reach).
 On medium_s0007's first search of mechanism-v2 (10 commands, 92,706 arcs) HiGHS needs about
 70 CPU seconds, where the search had not closed after 20,000 nodes
-(``benchmarks/bench_mission_assignment.py``).
+(``benchmarks/bench_mission_milp.py``).
 """
 
 from __future__ import annotations
